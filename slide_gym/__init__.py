@@ -1,0 +1,28 @@
+"""slide-gym: pre-grasp top-sliding of thin objects with a compliant underactuated hand.
+
+Importing the package registers the Gymnasium environments listed in :data:`ENV_IDS`.
+"""
+
+from __future__ import annotations
+
+from gymnasium.envs.registration import register, registry
+
+__version__ = "0.1.0"
+
+_ENTRY_POINT = "slide_gym.envs.top_slide:TopSlideEnv"
+_SPECS = {
+    "SlideGym/TopSlide-v0": ({"goal": "slide", "reward_type": "sparse"}, 300),
+    "SlideGym/TopSlideDense-v0": ({"goal": "slide", "reward_type": "dense"}, 300),
+    "SlideGym/TopSlideGrasp-v0": ({"goal": "grasp", "reward_type": "sparse"}, 600),
+    "SlideGym/TopSlideGraspDense-v0": ({"goal": "grasp", "reward_type": "dense"}, 600),
+}
+ENV_IDS: tuple[str, ...] = tuple(_SPECS)
+"""The registered environment ids (time limits: 15 s to slide, 30 s to slide and grasp)."""
+
+for _env_id, (_kwargs, _steps) in _SPECS.items():
+    if _env_id not in registry:
+        register(_env_id, entry_point=_ENTRY_POINT, kwargs=_kwargs, max_episode_steps=_steps)
+
+from slide_gym.geometry import OBJECT_NAMES, TABLE_NAMES  # noqa: E402
+
+__all__ = ["ENV_IDS", "OBJECT_NAMES", "TABLE_NAMES", "__version__"]

@@ -1,0 +1,84 @@
+"""Benchmarks run by ``slide-gym bench``: numbers for the README come from here."""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from slide_gym.envs.top_slide import TopSlideEnv
+
+
+def bench_env(
+    object_name: str = "square",
+    table_name: str = "square",
+    steps: int = 600,
+    resets: int = 20,
+    seed: int = 0,
+) -> dict[str, Any]:
+    """Env throughput, real-time factor, overhead over raw physics stepping, and reset time.
+
+    The raw loop steps the very same world (robot springs applied every physics step, arm
+    targets held) without building observations, rewards or infos.
+    """
+    if steps < 1 or resets < 1:
+        raise ValueError(f"steps and resets must be >= 1, got {steps} and {resets}")
+    env = TopSlideEnv(object=object_name, table=table_name)
+    rng = np.random.default_rng(seed)
+    try:
+        reset_times = []
+        for i in range(resets):
+            t0 = time.perf_counter()
+            env.reset(seed=seed + i)
+            reset_times.append(time.perf_counter() - t0)
+
+        env.reset(seed=seed)
+        actions = rng.uniform(-0.3, 0.3, size=(steps, 8)).astype(np.float32)
+        t0 = time.perf_counter()
+        for a in actions:
+            env.step(a)
+        env_wall = time.perf_counter() - t0
+
+        env.reset(seed=seed)
+        robot, n_sub = env.robot, env.n_substeps
+        t0 = time.perf_counter()
+        for _ in range(steps):
+            robot.set_arm_targets(env._arm_target)  # noqa: SLF001 - same work as step()
+            for _ in range(n_sub):
+                robot.step_physics()
+        raw_wall = time.perf_counter() - t0
+    finally:
+        env.close()
+
+    sim_time = steps * n_sub * env.sim.physics.timestep
+    return {
+        "benchmark": "env_step",
+        "object": object_name,
+        "table": table_name,
+        "control_hz": 1.0 / (n_sub * env.sim.physics.timestep),
+        "physics_hz": 1.0 / env.sim.physics.timestep,
+        "steps": steps,
+        "env_steps_per_s": steps / env_wall,
+        "env_real_time_factor": sim_time / env_wall,
+        "raw_real_time_factor": sim_time / raw_wall,
+        "env_overhead": env_wall / raw_wall - 1.0,
+        "reset_ms_median": 1e3 * float(np.median(reset_times)),
+        "reset_ms_max": 1e3 * float(np.max(reset_times)),
+        "machine": f"{platform.processor() or platform.machine()}, "
+        f"OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS', 'unset')}",
+    }
+
+
+def write_result(result: dict[str, Any], out: Path | None) -> None:
+    """Print the result as JSON and, if asked, append it as one line to ``out``."""
+    line = json.dumps(result)
+    print(json.dumps(result, indent=2))
+    if out is not None:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        with out.open("a") as f:
+            f.write(line + "\n")

@@ -1,0 +1,341 @@
+"""Gymnasium environments for pre-grasp top-sliding with the WAM + Yale T42 robot."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from slide_gym.geometry import (
+    OBJECT_NAMES,
+    TABLE_NAMES,
+    ObjectShape,
+    TableShape,
+    get_object,
+    get_table,
+)
+from slide_gym.robot import (
+    ARM_LOWER,
+    ARM_UPPER,
+    FINGER_LOWER,
+    FINGER_UPPER,
+    READY_ARM_Q,
+    WamT42,
+)
+from slide_gym.sim import PhysicsParams, Simulation
+from slide_gym.task import (
+    SceneState,
+    TaskParams,
+    TopSlideTask,
+    check_scene,
+    sample_start_pose,
+    validate_start_pose,
+)
+
+OBJECT_OUTLINE_POINTS = 32
+TABLE_OUTLINE_POINTS = 64
+_POS_BOUND = 3.0
+_VEL_BOUND = 20.0
+_OUTLINE_BOUND = 3.0
+_SETTLE_STEPS = 24
+
+
+class TopSlideEnv(gym.Env):
+    """Slide a thin object over a table edge with a fingertip press, and optionally lift it.
+
+    A Barrett WAM arm with a compliant two-finger Yale T42 hand faces a table carrying one thin
+    plate. The plate is too flat to grasp where it lies: the robot presses finger A's tip on it
+    and drags it by friction until part of it overhangs the table edge, then (``goal="grasp"``)
+    grasps the overhang from the side and lifts it.
+
+    ## Action Space
+    ``Box(-1, 1, (8,), float32)``. Entries 0-6 are arm joint-position increments, scaled by
+    ``max_joint_step`` (rad per control step) and added to the current joint targets (clipped
+    to the joint limits). Entry 7 is the hand command: ``u = (a + 1) / 2`` in [0, 1] scales the
+    tendon torque (0 = open, 1 = close). The finger joints are springs; they are not commanded.
+
+    ## Observation Space
+    A ``Dict`` of float32 boxes:
+
+    | key | shape | meaning |
+    |---|---|---|
+    | ``arm_qpos`` / ``arm_qvel`` | (7,) | arm joint angles (rad) and velocities (rad/s) |
+    | ``finger_qpos`` / ``finger_qvel`` | (4,) | finger A (proximal, distal), finger B (same) |
+    | ``hand_command`` | (1,) | the current u in [0, 1] |
+    | ``fingertip_pose`` | (7,) | world position and quaternion (xyzw) of ``fingertip_contact`` |
+    | ``object_pose`` | (7,) | world position (bottom-face centroid) and quaternion of the object |
+    | ``object_velocity`` | (6,) | linear and angular velocity of the object |
+    | ``object_outline`` | (32, 2) | object outline in its own frame (m), resampled by arc length |
+    | ``table_outline`` | (64, 2) | table outline in the world (m), resampled by arc length |
+    | ``table_height`` | (1,) | world z of the table top |
+
+    The outline descriptors have a fixed size, so one policy can serve every shape. Values are
+    clipped to the declared bounds.
+
+    ## Rewards
+    ``reward_type="sparse"``: 1 on success, 0 otherwise. ``"dense"`` adds shaping (metres,
+    negative): minus the fingertip-to-object distance, minus the missing overhang
+    ``max(0, u* - u)``, and for ``goal="grasp"`` minus the missing lift height; plus 1 on success.
+
+    ## Starting State
+    The arm is at a ready pose with the hand pointing down above the table, fingers open and at
+    rest. The object lies flat at ``options["object_pose"] = (x, y, yaw)`` if given, otherwise at
+    a seeded random pose fully on the table, within reach, and not graspable. The world is
+    rebuilt on every reset, so a seed replays exactly.
+
+    ## Episode End
+    ``goal="slide"`` succeeds when the object rests in a graspable pose (overhang ``u >= u*``
+    from the nearest table edge, centroid still over the table) and the robot no longer touches
+    it. ``goal="grasp"`` succeeds when the object's bottom is at least ``lift_height`` above the
+    table top while touching both fingers. Success terminates the episode; so does the object
+    falling off the table (a failure). Truncation comes from the registered time limit.
+    ``info["is_success"]`` is a Python bool at reset and every step.
+
+    ## Arguments
+    - ``object``: a catalog name (see ``slide_gym.OBJECT_NAMES``), a path to a JSON shape, an
+      ``ObjectShape``, or ``"random"`` (a catalog object drawn each episode).
+    - ``table``: likewise with ``slide_gym.TABLE_NAMES``.
+    - ``scale``: object scale factor (> 0).
+    - ``goal``: ``"slide"`` or ``"grasp"``; ``reward_type``: ``"sparse"`` or ``"dense"``.
+    - ``render_mode``: ``None``, ``"rgb_array"`` (headless TinyRenderer) or ``"human"`` (GUI).
+    - ``control_hz`` (default 20), ``physics_hz`` (default 240), ``max_joint_step`` (rad per
+      control step, default 0.05), ``task_params``: a :class:`TaskParams`.
+    """
+
+    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 20}
+
+    def __init__(
+        self,
+        object: str | ObjectShape = "square",  # noqa: A002 - the public argument name
+        table: str | TableShape = "square",
+        scale: float = 1.0,
+        goal: str = "slide",
+        reward_type: str = "sparse",
+        render_mode: str | None = None,
+        control_hz: float = 20.0,
+        physics_hz: float = 240.0,
+        max_joint_step: float = 0.05,
+        task_params: TaskParams | None = None,
+    ):
+        if goal not in ("slide", "grasp"):
+            raise ValueError(f"goal must be 'slide' or 'grasp', got {goal!r}")
+        if reward_type not in ("sparse", "dense"):
+            raise ValueError(f"reward_type must be 'sparse' or 'dense', got {reward_type!r}")
+        if render_mode not in (None, *self.metadata["render_modes"]):
+            raise ValueError(
+                f"render_mode must be None, 'rgb_array' or 'human', got {render_mode!r}"
+            )
+        for name, value in (("control_hz", control_hz), ("physics_hz", physics_hz)):
+            if not (np.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a positive number, got {value}")
+        substeps = physics_hz / control_hz
+        if abs(substeps - round(substeps)) > 1e-9 or round(substeps) < 1:
+            raise ValueError(
+                f"physics_hz ({physics_hz}) must be a whole multiple of control_hz ({control_hz})"
+            )
+        if not (np.isfinite(max_joint_step) and max_joint_step > 0):
+            raise ValueError(f"max_joint_step must be a positive number, got {max_joint_step}")
+        self.goal, self.reward_type, self.render_mode = goal, reward_type, render_mode
+        self.n_substeps = int(round(substeps))
+        self.max_joint_step = float(max_joint_step)
+        self.metadata = {**self.metadata, "render_fps": control_hz}
+
+        self._object_spec = self._resolve(
+            "object", object, OBJECT_NAMES, lambda s: get_object(s, scale)
+        )
+        self._table_spec = self._resolve("table", table, TABLE_NAMES, get_table)
+        self.scale = float(scale)
+        objects = self._candidates(self._object_spec, OBJECT_NAMES, lambda n: get_object(n, scale))
+        for table_shape in self._candidates(self._table_spec, TABLE_NAMES, get_table):
+            for object_shape in objects:
+                check_scene(object_shape, table_shape)
+
+        self.task = TopSlideTask(task_params)
+        self.sim = Simulation(render_mode, PhysicsParams(timestep=1.0 / physics_hz))
+        self.robot = WamT42(self.sim)
+        self._arm_target = np.array(READY_ARM_Q, dtype=float)
+        self._u = 0.0
+        self._state: SceneState | None = None
+
+        self.action_space = spaces.Box(-1.0, 1.0, (8,), np.float32)
+        self.observation_space = self._make_observation_space()
+
+    # ------------------------------------------------------------------ set-up
+    @staticmethod
+    def _resolve(kind: str, spec: Any, names: tuple[str, ...], load: Any) -> Any:
+        """Validate at construction; keep ``"random"`` to draw a catalog shape per episode."""
+        if isinstance(spec, str) and spec == "random":
+            return "random"
+        if spec is None:
+            raise ValueError(f"{kind} must be one of {', '.join(names)}, 'random' or a .json path")
+        return load(spec)
+
+    def _make_observation_space(self) -> spaces.Dict:
+        def box(low: Any, high: Any, shape: tuple[int, ...]) -> spaces.Box:
+            return spaces.Box(
+                np.broadcast_to(np.asarray(low, np.float32), shape).copy(),
+                np.broadcast_to(np.asarray(high, np.float32), shape).copy(),
+                shape,
+                np.float32,
+            )
+
+        pose_low = np.r_[[-_POS_BOUND] * 3, [-1.0] * 4]
+        return spaces.Dict(
+            {
+                "arm_qpos": box(np.asarray(ARM_LOWER) - 0.2, np.asarray(ARM_UPPER) + 0.2, (7,)),
+                "arm_qvel": box(-_VEL_BOUND, _VEL_BOUND, (7,)),
+                "finger_qpos": box(
+                    np.asarray(FINGER_LOWER) - 0.5, np.asarray(FINGER_UPPER) + 0.5, (4,)
+                ),
+                "finger_qvel": box(-5 * _VEL_BOUND, 5 * _VEL_BOUND, (4,)),
+                "hand_command": box(0.0, 1.0, (1,)),
+                "fingertip_pose": box(pose_low, -pose_low, (7,)),
+                "object_pose": box(pose_low, -pose_low, (7,)),
+                "object_velocity": box(-_VEL_BOUND, _VEL_BOUND, (6,)),
+                "object_outline": box(-_OUTLINE_BOUND, _OUTLINE_BOUND, (OBJECT_OUTLINE_POINTS, 2)),
+                "table_outline": box(-_OUTLINE_BOUND, _OUTLINE_BOUND, (TABLE_OUTLINE_POINTS, 2)),
+                "table_height": box(-_POS_BOUND, _POS_BOUND, (1,)),
+            }
+        )
+
+    # --------------------------------------------------------------- gym API
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        super().reset(seed=seed)
+        options = dict(options or {})
+        unknown = set(options) - {"object_pose", "arm_qpos"}
+        if unknown:
+            raise ValueError(
+                f"unknown reset options {sorted(unknown)}; allowed: object_pose, arm_qpos"
+            )
+        obj = self._pick(self._object_spec, OBJECT_NAMES, lambda s: get_object(s, self.scale))
+        table = self._pick(self._table_spec, TABLE_NAMES, get_table)
+        check_scene(obj, table)
+        if options.get("object_pose") is not None:
+            pose = validate_start_pose(obj, table, options["object_pose"])
+        else:
+            pose = sample_start_pose(obj, table, self.np_random, self.task.params.start_margin)
+        arm_q = np.array(READY_ARM_Q, dtype=float)
+        if options.get("arm_qpos") is not None:
+            arm_q = np.asarray(options["arm_qpos"], dtype=float).reshape(-1)
+            if arm_q.shape != (7,) or not np.all(np.isfinite(arm_q)):
+                raise ValueError(
+                    f"arm_qpos must be 7 finite joint angles, got {options['arm_qpos']!r}"
+                )
+            if np.any(arm_q < ARM_LOWER) or np.any(arm_q > ARM_UPPER):
+                raise ValueError(f"arm_qpos {arm_q.tolist()} is outside the joint limits")
+
+        # Rebuilding the world each reset clears PyBullet's solver caches: same seed, same run.
+        self.sim.clear()
+        self.robot.load()
+        self.task.build(self.sim, obj, table, pose)
+        self.robot.reset(arm_q)
+        self._arm_target = arm_q.copy()
+        self._u = 0.0
+        self.robot.set_hand_command(0.0)
+        self.robot.set_arm_targets(self._arm_target)
+        for _ in range(_SETTLE_STEPS):
+            self.robot.step_physics()
+        self._outline = obj.descriptor(OBJECT_OUTLINE_POINTS).astype(np.float32)
+        self._table_outline = table.descriptor(TABLE_OUTLINE_POINTS).astype(np.float32)
+        self._state = self._read_state()
+        return self._observation(), self._info(self._state)
+
+    @staticmethod
+    def _candidates(spec: Any, names: tuple[str, ...], load: Any) -> list[Any]:
+        return [load(n) for n in names] if spec == "random" else [spec]
+
+    def _pick(self, spec: Any, names: tuple[str, ...], load: Any) -> Any:
+        if isinstance(spec, str) and spec == "random":
+            return load(names[int(self.np_random.integers(len(names)))])
+        return spec
+
+    def step(
+        self, action: np.ndarray
+    ) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+        if self._state is None:
+            raise RuntimeError("call reset() before step()")
+        a = np.asarray(action, dtype=float).reshape(-1)
+        if a.shape != (8,) or not np.all(np.isfinite(a)):
+            raise ValueError(f"action must be 8 finite numbers in [-1, 1], got {action!r}")
+        a = np.clip(a, -1.0, 1.0)
+        self._arm_target = np.clip(
+            self._arm_target + self.max_joint_step * a[:7], ARM_LOWER, ARM_UPPER
+        )
+        self._u = float((a[7] + 1.0) / 2.0)
+        self.robot.set_arm_targets(self._arm_target)
+        self.robot.set_hand_command(self._u)
+        for _ in range(self.n_substeps):
+            self.robot.step_physics()
+        s = self._state = self._read_state()
+        success = self._success(s)
+        reward = self._reward(s, success)
+        terminated = success or s.fell_off
+        return self._observation(), reward, terminated, False, self._info(s)
+
+    def render(self) -> np.ndarray | None:
+        if self.render_mode == "rgb_array":
+            return self.sim.render()
+        return None
+
+    def close(self) -> None:
+        self.sim.close()
+
+    # --------------------------------------------------------------- helpers
+    def _read_state(self) -> SceneState:
+        return self.task.scene_state(self.sim, self.robot.finger_a_links, self.robot.finger_b_links)
+
+    def _success(self, s: SceneState) -> bool:
+        if self.goal == "slide":
+            return self.task.slide_success(s)
+        return self.task.grasp_success(s)
+
+    def _reward(self, s: SceneState, success: bool) -> float:
+        if self.reward_type == "sparse":
+            return float(success)
+        p = self.task.params
+        tip, _ = self.robot.fingertip_pose()
+        obj_top = np.array([s.object_pose[0], s.object_pose[1], s.object_z])
+        reward = -float(np.linalg.norm(tip - obj_top)) - max(0.0, p.u_star - s.overhang_m)
+        if self.goal == "grasp":
+            reward -= max(0.0, p.lift_height - s.lift_m)
+        return reward + float(success)
+
+    def _info(self, s: SceneState) -> dict[str, Any]:
+        return {
+            "is_success": bool(self._success(s)),
+            "overhang_m": s.overhang_m,
+            "graspable": s.graspable,
+            "lift_m": s.lift_m,
+            "touching_robot": s.touching_robot,
+            "fell_off": s.fell_off,
+            "object_pose_2d": s.object_pose,
+        }
+
+    def _observation(self) -> dict[str, np.ndarray]:
+        q, dq = self.robot.arm_joint_state()
+        fq, fdq = self.robot.finger_joint_state()
+        tip_pos, tip_quat = self.robot.fingertip_pose()
+        obj_pos, obj_quat = self.task.object_pose(self.sim)
+        lin, ang = self.sim.base_velocity("object")
+        raw = {
+            "arm_qpos": q,
+            "arm_qvel": dq,
+            "finger_qpos": fq,
+            "finger_qvel": fdq,
+            "hand_command": np.array([self._u]),
+            "fingertip_pose": np.r_[tip_pos, tip_quat],
+            "object_pose": np.r_[obj_pos, obj_quat],
+            "object_velocity": np.r_[lin, ang],
+            "object_outline": self._outline,
+            "table_outline": self._table_outline,
+            "table_height": np.array([self.task.table.height if self.task.table else 0.0]),
+        }
+        space = self.observation_space.spaces
+        return {
+            k: np.clip(np.asarray(v, np.float32), space[k].low, space[k].high)
+            for k, v in raw.items()
+        }

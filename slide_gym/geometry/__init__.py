@@ -1,0 +1,63 @@
+"""Planar geometry of slide-gym: plate objects, tables, convex pieces and overhang.
+
+World frame: origin at the robot base mounting point, z up, x from the robot toward the
+tables. Object frame: origin at the plate polygon's centroid, z = 0 at its bottom face
+(loaded vertices are recentred on the centroid). See :mod:`slide_gym.geometry.shapes` for
+the JSON formats and :mod:`slide_gym.geometry.polygons` for the overhang definition.
+"""
+
+from slide_gym.geometry.catalog import (
+    OBJECT_NAMES,
+    OBJECTS,
+    TABLE_NAMES,
+    TABLES,
+    catalog_summary,
+    get_object,
+    get_table,
+)
+from slide_gym.geometry.polygons import (
+    Overhang,
+    convex_pieces,
+    is_graspable,
+    make_polygon,
+    outline_descriptor,
+    overhang,
+    point_cloud,
+    transform_points,
+    transform_polygon,
+)
+from slide_gym.geometry.shapes import (
+    DEFAULT_DENSITY,
+    DEFAULT_SLAB_THICKNESS,
+    DEFAULT_THICKNESS,
+    ObjectShape,
+    TableShape,
+    load_object_json,
+    load_table_json,
+)
+
+__all__ = [
+    "DEFAULT_DENSITY",
+    "DEFAULT_SLAB_THICKNESS",
+    "DEFAULT_THICKNESS",
+    "OBJECTS",
+    "OBJECT_NAMES",
+    "TABLES",
+    "TABLE_NAMES",
+    "ObjectShape",
+    "Overhang",
+    "TableShape",
+    "catalog_summary",
+    "convex_pieces",
+    "get_object",
+    "get_table",
+    "is_graspable",
+    "load_object_json",
+    "load_table_json",
+    "make_polygon",
+    "outline_descriptor",
+    "overhang",
+    "point_cloud",
+    "transform_points",
+    "transform_polygon",
+]

@@ -1,0 +1,220 @@
+"""The top-sliding task: the scene (table + thin object), its start states and its success tests.
+
+The task knows nothing about actions; the environment joins it with the robot.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from shapely.geometry import Point, Polygon
+
+from slide_gym.geometry import (
+    ObjectShape,
+    TableShape,
+    is_graspable,
+    overhang,
+    transform_polygon,
+)
+from slide_gym.sim import Simulation
+
+REACH_MIN = 0.30
+"""Closest object centroid to the robot base axis (m): nearer, the arm folds onto itself."""
+REACH_MAX = 0.85
+"""Farthest object centroid from the robot base axis (m) that the fingertip can press."""
+
+
+@dataclass(frozen=True)
+class TaskParams:
+    """Success thresholds and contact materials (SI units)."""
+
+    u_star: float = 0.03
+    """Minimum overhang (m) for a side grasp: about the fingertip pad's contact length."""
+    lift_height: float = 0.05
+    """How far (m) the object's bottom must rise above the table top for a lift."""
+    rest_speed: float = 0.01
+    """Object speed (m/s) below which it counts as resting."""
+    object_friction: float = 0.8
+    """Lateral friction coefficient of the object (PyBullet multiplies the two bodies')."""
+    table_friction: float = 0.4
+    spinning_friction: float = 0.003
+    start_margin: float = 0.01
+    """Random start poses keep the object this far (m) inside the table outline."""
+
+    def __post_init__(self) -> None:
+        for name in ("u_star", "lift_height", "rest_speed", "object_friction", "table_friction"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise ValueError(f"TaskParams.{name} must be a positive number, got {value}")
+
+
+@dataclass(frozen=True)
+class SceneState:
+    """What the task reads from the world after a step (plain Python types)."""
+
+    object_pose: tuple[float, float, float]
+    object_z: float
+    overhang_m: float
+    centroid_on_table: bool
+    graspable: bool
+    object_speed: float
+    lift_m: float
+    touching_robot: bool
+    touching_finger_a: bool
+    touching_finger_b: bool
+    fell_off: bool
+
+
+def check_scene(obj: ObjectShape, table: TableShape) -> None:
+    """Reject object/table pairs that can never make a valid episode."""
+    if obj.area >= table.polygon.area:
+        raise ValueError(
+            f"object {obj.name!r} ({obj.area * 1e4:.0f} cm^2) is larger than table "
+            f"{table.name!r} ({table.polygon.area * 1e4:.0f} cm^2)"
+        )
+    inscribed = shapely.maximum_inscribed_circle(table.polygon).length / 2.0
+    if 2 * obj.circumradius > max(2 * inscribed, *_extent(table.polygon)):
+        raise ValueError(
+            f"object {obj.name!r} ({2 * obj.circumradius:.3f} m across) does not fit on "
+            f"table {table.name!r}"
+        )
+    annulus = Point(0, 0).buffer(REACH_MAX, 64).difference(Point(0, 0).buffer(REACH_MIN, 64))
+    if table.polygon.intersection(annulus).area < 0.5 * table.polygon.area:
+        raise ValueError(
+            f"table {table.name!r} lies outside the arm's reach: at least half of it must be "
+            f"between {REACH_MIN} and {REACH_MAX} m from the robot base (x, y) = (0, 0)"
+        )
+
+
+def _extent(poly: Polygon) -> tuple[float, float]:
+    minx, miny, maxx, maxy = poly.bounds
+    return maxx - minx, maxy - miny
+
+
+def validate_start_pose(obj: ObjectShape, table: TableShape, pose: object) -> np.ndarray:
+    """Check a user-given start pose (x, y, yaw); return it as a float array."""
+    try:
+        arr = np.asarray(pose, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise ValueError(f"object_pose must be 3 numbers (x, y, yaw), got {pose!r}") from None
+    if arr.shape != (3,) or not np.all(np.isfinite(arr)):
+        raise ValueError(f"object_pose must be 3 finite numbers (x, y, yaw), got {pose!r}")
+    placed = transform_polygon(obj.polygon, *arr)
+    if not table.polygon.contains(placed):
+        out = placed.difference(table.polygon).area / placed.area
+        raise ValueError(
+            f"object_pose {arr.tolist()} puts {out:.0%} of object {obj.name!r} off table "
+            f"{table.name!r}; the start pose must be fully on the table (not overhanging)"
+        )
+    reach = float(np.hypot(arr[0], arr[1]))
+    if not REACH_MIN <= reach <= REACH_MAX:
+        raise ValueError(
+            f"object_pose {arr.tolist()} is {reach:.2f} m from the robot base; the arm reaches "
+            f"objects between {REACH_MIN} and {REACH_MAX} m"
+        )
+    return arr
+
+
+def sample_start_pose(
+    obj: ObjectShape, table: TableShape, rng: np.random.Generator, margin: float, tries: int = 2000
+) -> np.ndarray:
+    """A random (x, y, yaw) with the object fully on the table (with a margin) and in reach."""
+    inner = table.polygon.buffer(-margin)
+    minx, miny, maxx, maxy = inner.bounds if not inner.is_empty else table.polygon.bounds
+    for _ in range(tries):
+        pose = np.array(
+            [rng.uniform(minx, maxx), rng.uniform(miny, maxy), rng.uniform(-np.pi, np.pi)]
+        )
+        if not REACH_MIN <= np.hypot(pose[0], pose[1]) <= REACH_MAX:
+            continue
+        if inner.contains(transform_polygon(obj.polygon, *pose)):
+            return pose
+    raise ValueError(
+        f"could not place object {obj.name!r} on table {table.name!r} within the arm's reach "
+        f"in {tries} random tries: the object is too large for this table"
+    )
+
+
+class TopSlideTask:
+    """Builds the table and object in a :class:`Simulation` and reads the scene state."""
+
+    def __init__(self, params: TaskParams | None = None):
+        self.params = params or TaskParams()
+        self.object: ObjectShape | None = None
+        self.table: TableShape | None = None
+
+    def build(self, sim: Simulation, obj: ObjectShape, table: TableShape, pose: np.ndarray) -> None:
+        """Create the table (static) and the object resting on it at ``pose``."""
+        self.object, self.table = obj, table
+        p = self.params
+        sim.create_prism_body(
+            "table",
+            table.convex_pieces(),
+            table.height - table.slab_thickness,
+            table.height,
+            mass=0.0,
+            rgba=(0.72, 0.62, 0.5, 1.0),
+            lateral_friction=p.table_friction,
+        )
+        half = obj.thickness / 2.0
+        sim.create_prism_body(
+            "object",
+            obj.convex_pieces(),
+            -half,
+            half,
+            mass=obj.mass,
+            position=(pose[0], pose[1], table.height + half),
+            yaw=float(pose[2]),
+            rgba=(0.15, 0.45, 0.85, 1.0),
+            lateral_friction=p.object_friction,
+            spinning_friction=p.spinning_friction,
+        )
+
+    def object_pose(self, sim: Simulation) -> tuple[np.ndarray, np.ndarray]:
+        """Object frame position (bottom face centre) and quaternion xyzw in the world."""
+        pos, quat = sim.base_pose("object")
+        assert self.object is not None
+        pos = pos.copy()
+        pos[2] -= self.object.thickness / 2.0  # body frame is the centre of mass
+        return pos, quat
+
+    def scene_state(
+        self, sim: Simulation, finger_a_links: list[int], finger_b_links: list[int]
+    ) -> SceneState:
+        assert self.object is not None and self.table is not None
+        pos, quat = self.object_pose(sim)
+        yaw = float(
+            np.arctan2(
+                2 * (quat[3] * quat[2] + quat[0] * quat[1]), 1 - 2 * (quat[1] ** 2 + quat[2] ** 2)
+            )
+        )
+        placed = transform_polygon(self.object.polygon, pos[0], pos[1], yaw)
+        over = overhang(placed, self.table.polygon)
+        lin, _ = sim.base_velocity("object")
+        contacts = sim.contact_points("object", "robot")
+        links = {c[4] for c in contacts}
+        lift = float(pos[2] - self.table.height)
+        return SceneState(
+            object_pose=(float(pos[0]), float(pos[1]), yaw),
+            object_z=float(pos[2]),
+            overhang_m=float(over.u),
+            centroid_on_table=bool(over.centroid_inside),
+            graspable=bool(is_graspable(placed, self.table.polygon, self.params.u_star)),
+            object_speed=float(np.linalg.norm(lin)),
+            lift_m=lift,
+            touching_robot=bool(contacts),
+            touching_finger_a=bool(links.intersection(finger_a_links)),
+            touching_finger_b=bool(links.intersection(finger_b_links)),
+            fell_off=bool(lift < -0.02),
+        )
+
+    def slide_success(self, s: SceneState) -> bool:
+        """Graspable, resting on the table, and the fingertip has let go."""
+        resting = s.object_speed < self.params.rest_speed and abs(s.lift_m) < 0.005
+        return s.graspable and resting and not s.touching_robot
+
+    def grasp_success(self, s: SceneState) -> bool:
+        """Lifted clear of the table and held between the two fingers."""
+        return s.lift_m >= self.params.lift_height and s.touching_finger_a and s.touching_finger_b

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 from gymnasium.envs.registration import register, registry
 
+from slide_gym import sim as _sim  # noqa: F401 - first PyBullet import, with its banner silenced
+
 __version__ = "0.1.0"
 
 _ENTRY_POINT = "slide_gym.envs.top_slide:TopSlideEnv"

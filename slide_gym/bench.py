@@ -11,7 +11,9 @@ from typing import Any
 
 import numpy as np
 
+from slide_gym.demo import ScriptedSlider
 from slide_gym.envs.top_slide import TopSlideEnv
+from slide_gym.robot import ARM_LOWER, ARM_UPPER
 
 
 def bench_env(
@@ -29,7 +31,6 @@ def bench_env(
     if steps < 1 or resets < 1:
         raise ValueError(f"steps and resets must be >= 1, got {steps} and {resets}")
     env = TopSlideEnv(object=object_name, table=table_name)
-    rng = np.random.default_rng(seed)
     try:
         reset_times = []
         for i in range(resets):
@@ -37,18 +38,28 @@ def bench_env(
             env.reset(seed=seed + i)
             reset_times.append(time.perf_counter() - t0)
 
+        # Contact-rich actions: record the scripted slider once (untimed), then replay them.
+        obs, _ = env.reset(seed=seed)
+        policy = ScriptedSlider(env)
+        actions = []
+        for _ in range(steps):
+            actions.append(policy.act(obs))
+            obs, *_ = env.step(actions[-1])
         env.reset(seed=seed)
-        actions = rng.uniform(-0.3, 0.3, size=(steps, 8)).astype(np.float32)
         t0 = time.perf_counter()
         for a in actions:
             env.step(a)
         env_wall = time.perf_counter() - t0
 
+        # The same world and the same actions, stepped without observations/rewards/infos.
         env.reset(seed=seed)
-        robot, n_sub = env.robot, env.n_substeps
+        robot, n_sub, max_step = env.robot, env.n_substeps, env.max_joint_step
+        target = np.array(env._arm_target)  # noqa: SLF001 - the env's start target
         t0 = time.perf_counter()
-        for _ in range(steps):
-            robot.set_arm_targets(env._arm_target)  # noqa: SLF001 - same work as step()
+        for a in actions:
+            target = np.clip(target + max_step * a[:7], ARM_LOWER, ARM_UPPER)
+            robot.set_arm_targets(target)
+            robot.set_hand_command((a[7] + 1.0) / 2.0)
             for _ in range(n_sub):
                 robot.step_physics()
         raw_wall = time.perf_counter() - t0

@@ -7,16 +7,40 @@ robot, the task and the environment stay free of client ids and body indices.
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import hashlib
 import os
+import sys
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import pybullet as pb
-from pybullet_utils.bullet_client import BulletClient
+
+_LIBC = ctypes.CDLL(None)
+
+
+@contextlib.contextmanager
+def silenced_stdout() -> Iterator[None]:
+    """Send file descriptor 1 to /dev/null: PyBullet's C code prints banners and URDF
+    merge logs there, which would corrupt the JSON that ``slide-gym ... --json`` prints."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 1)
+        yield
+    finally:
+        _LIBC.fflush(None)  # C stdio buffers what it printed; drop it while still silenced
+        os.dup2(saved, 1)
+        os.close(saved)
+        os.close(devnull)
+
+
+with silenced_stdout():
+    import pybullet as pb
+    from pybullet_utils.bullet_client import BulletClient
 
 _MESH_CACHE = Path(tempfile.gettempdir()) / "slide_gym_meshes"
 
@@ -48,7 +72,8 @@ class Simulation:
         self.physics = physics or PhysicsParams()
         self.render_mode = render_mode
         mode = pb.GUI if render_mode == "human" else pb.DIRECT
-        self.client = BulletClient(connection_mode=mode)
+        with silenced_stdout():
+            self.client = BulletClient(connection_mode=mode)
         if render_mode == "human":
             self.client.configureDebugVisualizer(pb.COV_ENABLE_GUI, 0)
         self.bodies: dict[str, int] = {}
@@ -86,9 +111,10 @@ class Simulation:
         fixed_base: bool = True,
         flags: int = 0,
     ) -> int:
-        body = self.client.loadURDF(
-            str(path), basePosition=list(position), useFixedBase=fixed_base, flags=flags
-        )
+        with silenced_stdout():
+            body = self.client.loadURDF(
+                str(path), basePosition=list(position), useFixedBase=fixed_base, flags=flags
+            )
         self.bodies[name] = body
         return body
 

@@ -16,6 +16,7 @@ from slide_gym.geometry import (
     TableShape,
     is_graspable,
     overhang,
+    transform_points,
     transform_polygon,
 )
 from slide_gym.sim import Simulation
@@ -148,6 +149,9 @@ class TopSlideTask:
     def build(self, sim: Simulation, obj: ObjectShape, table: TableShape, pose: np.ndarray) -> None:
         """Create the table (static) and the object resting on it at ``pose``."""
         self.object, self.table = obj, table
+        self._outline = np.asarray(obj.polygon.exterior.coords)[:-1]
+        shapely.prepare(table.polygon)
+        self._table_convex = table.polygon.convex_hull.area - table.polygon.area < 1e-12
         p = self.params
         sim.create_prism_body(
             "table",
@@ -190,8 +194,15 @@ class TopSlideTask:
                 2 * (quat[3] * quat[2] + quat[0] * quat[1]), 1 - 2 * (quat[1] ** 2 + quat[2] ** 2)
             )
         )
-        placed = transform_polygon(self.object.polygon, pos[0], pos[1], yaw)
-        over = overhang(placed, self.table.polygon)
+        corners = transform_points(self._outline, pos[0], pos[1], yaw)
+        inside = shapely.contains_xy(self.table.polygon, corners[:, 0], corners[:, 1]).all()
+        if inside and self._table_convex:  # exact fast path: no vertex out, so nothing is out
+            u, centroid_inside, graspable = 0.0, True, False
+        else:
+            placed = transform_polygon(self.object.polygon, pos[0], pos[1], yaw)
+            over = overhang(placed, self.table.polygon)
+            u, centroid_inside = float(over.u), bool(over.centroid_inside)
+            graspable = is_graspable(placed, self.table.polygon, self.params.u_star)
         lin, _ = sim.base_velocity("object")
         contacts = sim.contact_points("object", "robot")
         links = {c[4] for c in contacts}
@@ -199,9 +210,9 @@ class TopSlideTask:
         return SceneState(
             object_pose=(float(pos[0]), float(pos[1]), yaw),
             object_z=float(pos[2]),
-            overhang_m=float(over.u),
-            centroid_on_table=bool(over.centroid_inside),
-            graspable=bool(is_graspable(placed, self.table.polygon, self.params.u_star)),
+            overhang_m=u,
+            centroid_on_table=centroid_inside,
+            graspable=bool(graspable),
             object_speed=float(np.linalg.norm(lin)),
             lift_m=lift,
             touching_robot=bool(contacts),

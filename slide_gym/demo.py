@@ -59,18 +59,21 @@ class ScriptedSlider:
         to_edge = np.array([nearest.x - x, nearest.y - y])
         dist = float(np.linalg.norm(to_edge))
         self.direction = to_edge / max(dist, 1e-9)
-        self.slide_length = dist + task.params.u_star + 0.02
+        corners = transform_points(np.asarray(obj.polygon.exterior.coords), x, y, yaw)
+        reach = float(np.max((corners - [x, y]) @ self.direction))  # object extent to the edge
+        # overhang u* plus a margin, while the centroid stays at least 1 cm on the table
+        self.slide_length = min(dist - reach + task.params.u_star + 0.015, dist - 0.01)
         self.top = table.height + obj.thickness
         radial = self.contact / max(np.linalg.norm(self.contact), 1e-9)
         z_axis = np.r_[np.cos(PITCH) * radial, -np.sin(PITCH)]
-        x_axis = np.r_[-radial[1], radial[0], 0.0]
+        x_axis = np.r_[radial[1], -radial[0], 0.0]  # so that finger B (on -Y_F) is above A
         self.rotation = np.column_stack([x_axis, np.cross(z_axis, x_axis), z_axis])
 
     def _target_position(self) -> np.ndarray:
         c = np.r_[self.contact, self.top]
         k = self.phase_steps
-        if self.phase == "hover":
-            return c + [0, 0, 0.04]
+        if self.phase == "hover":  # come in from above, clear of the object
+            return c + [0, 0, 0.04 + max(0.0, 0.06 - k * self.speed * self.dt)]
         if self.phase == "press":
             return c + [0, 0, 0.04 - min(k * self.speed * self.dt, 0.04 + self.press_depth)]
         slid = np.r_[self.direction * self.slide_length, -self.press_depth]

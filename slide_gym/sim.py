@@ -140,10 +140,11 @@ class Simulation:
         c = self.client
         files = [str(_prism_obj_file(np.asarray(p, dtype=float), z_bottom, z_top)) for p in pieces]
         n = len(files)
-        col = c.createCollisionShapeArray(shapeTypes=[pb.GEOM_MESH] * n, fileNames=files)
-        vis = c.createVisualShapeArray(
-            shapeTypes=[pb.GEOM_MESH] * n, fileNames=files, rgbaColors=[list(rgba)] * n
-        )
+        with silenced_stdout():  # PyBullet's mesh loader prints a banner
+            col = c.createCollisionShapeArray(shapeTypes=[pb.GEOM_MESH] * n, fileNames=files)
+            vis = c.createVisualShapeArray(
+                shapeTypes=[pb.GEOM_MESH] * n, fileNames=files, rgbaColors=[list(rgba)] * n
+            )
         body = c.createMultiBody(
             baseMass=mass,
             baseCollisionShapeIndex=col,
@@ -194,10 +195,10 @@ class Simulation:
         self,
         width: int = 480,
         height: int = 360,
-        target: Sequence[float] = (0.55, 0.0, 0.0),
-        distance: float = 1.5,
-        yaw: float = 50.0,
-        pitch: float = -35.0,
+        target: Sequence[float] = (0.45, 0.0, 0.15),
+        distance: float = 1.35,
+        yaw: float = 60.0,
+        pitch: float = -30.0,
     ) -> np.ndarray:
         """An RGB image (height, width, 3) uint8 from the TinyRenderer (works headless)."""
         c = self.client

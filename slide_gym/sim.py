@@ -77,6 +77,7 @@ class Simulation:
         if render_mode == "human":
             self.client.configureDebugVisualizer(pb.COV_ENABLE_GUI, 0)
         self.bodies: dict[str, int] = {}
+        self._step = self.client.stepSimulation  # bound once: BulletClient wraps per access
         self.clear()
 
     # ------------------------------------------------------------------ world
@@ -93,7 +94,7 @@ class Simulation:
         self.bodies.clear()
 
     def step(self) -> None:
-        self.client.stepSimulation()
+        self._step()
 
     def close(self) -> None:
         """Disconnect; safe to call twice."""

@@ -14,7 +14,6 @@ from shapely.geometry import Point, Polygon
 from slide_gym.geometry import (
     ObjectShape,
     TableShape,
-    is_graspable,
     overhang,
     transform_points,
     transform_polygon,
@@ -152,6 +151,8 @@ class TopSlideTask:
         self._outline = np.asarray(obj.polygon.exterior.coords)[:-1]
         shapely.prepare(table.polygon)
         self._table_convex = table.polygon.convex_hull.area - table.polygon.area < 1e-12
+        self._placement_key: tuple[float, float, float] | None = None
+        self._placement_value = (0.0, True, False)
         p = self.params
         sim.create_prism_body(
             "table",
@@ -194,15 +195,7 @@ class TopSlideTask:
                 2 * (quat[3] * quat[2] + quat[0] * quat[1]), 1 - 2 * (quat[1] ** 2 + quat[2] ** 2)
             )
         )
-        corners = transform_points(self._outline, pos[0], pos[1], yaw)
-        inside = shapely.contains_xy(self.table.polygon, corners[:, 0], corners[:, 1]).all()
-        if inside and self._table_convex:  # exact fast path: no vertex out, so nothing is out
-            u, centroid_inside, graspable = 0.0, True, False
-        else:
-            placed = transform_polygon(self.object.polygon, pos[0], pos[1], yaw)
-            over = overhang(placed, self.table.polygon)
-            u, centroid_inside = float(over.u), bool(over.centroid_inside)
-            graspable = is_graspable(placed, self.table.polygon, self.params.u_star)
+        u, centroid_inside, graspable = self._placement(float(pos[0]), float(pos[1]), yaw)
         lin, _ = sim.base_velocity("object")
         contacts = sim.contact_points("object", "robot")
         links = {c[4] for c in contacts}
@@ -220,6 +213,22 @@ class TopSlideTask:
             touching_finger_b=bool(links.intersection(finger_b_links)),
             fell_off=bool(lift < -0.02),
         )
+
+    def _placement(self, x: float, y: float, yaw: float) -> tuple[float, bool, bool]:
+        """Overhang u, centroid on the table, graspable: for the object at (x, y, yaw)."""
+        key = (round(x, 7), round(y, 7), round(yaw, 6))
+        if key == self._placement_key:  # a resting object: nothing to recompute
+            return self._placement_value
+        assert self.object is not None and self.table is not None
+        corners = transform_points(self._outline, x, y, yaw)
+        inside = shapely.contains_xy(self.table.polygon, corners[:, 0], corners[:, 1]).all()
+        if inside and self._table_convex:  # exact fast path: no vertex out, so nothing is out
+            value = (0.0, True, False)
+        else:
+            over = overhang(transform_polygon(self.object.polygon, x, y, yaw), self.table.polygon)
+            value = (float(over.u), bool(over.centroid_inside), over.graspable(self.params.u_star))
+        self._placement_key, self._placement_value = key, value
+        return value
 
     def slide_success(self, s: SceneState) -> bool:
         """Graspable, resting on the table, and the fingertip has let go."""

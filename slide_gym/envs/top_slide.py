@@ -40,6 +40,17 @@ _POS_BOUND = 3.0
 _VEL_BOUND = 20.0
 _OUTLINE_BOUND = 3.0
 _SETTLE_STEPS = 24
+_FLAT_KEYS = (
+    "arm_qpos",
+    "arm_qvel",
+    "finger_qpos",
+    "finger_qvel",
+    "hand_command",
+    "fingertip_pose",
+    "object_pose",
+    "object_velocity",
+)
+"""Observation entries read from the simulator each step, in the order they are packed."""
 
 
 class TopSlideEnv(gym.Env):
@@ -161,6 +172,14 @@ class TopSlideEnv(gym.Env):
 
         self.action_space = spaces.Box(-1.0, 1.0, (8,), np.float32)
         self.observation_space = self._make_observation_space()
+        self._flat_slices: dict[str, tuple[int, int]] = {}
+        start = 0
+        for key in _FLAT_KEYS:
+            size = self.observation_space[key].shape[0]
+            self._flat_slices[key] = (start, start + size)
+            start += size
+        self._flat_low = np.concatenate([self.observation_space[k].low for k in _FLAT_KEYS])
+        self._flat_high = np.concatenate([self.observation_space[k].high for k in _FLAT_KEYS])
 
     # ------------------------------------------------------------------ set-up
     @staticmethod
@@ -239,8 +258,17 @@ class TopSlideEnv(gym.Env):
         self.robot.set_arm_targets(self._arm_target)
         for _ in range(_SETTLE_STEPS):
             self.robot.step_physics()
-        self._outline = obj.descriptor(OBJECT_OUTLINE_POINTS).astype(np.float32)
-        self._table_outline = table.descriptor(TABLE_OUTLINE_POINTS).astype(np.float32)
+        space = self.observation_space
+        self._outline = np.clip(
+            obj.descriptor(OBJECT_OUTLINE_POINTS),
+            space["object_outline"].low,
+            space["object_outline"].high,
+        ).astype(np.float32)
+        self._table_outline = np.clip(
+            table.descriptor(TABLE_OUTLINE_POINTS),
+            space["table_outline"].low,
+            space["table_outline"].high,
+        ).astype(np.float32)
         self._state = self._read_state()
         return self._observation(), self._info(self._state)
 
@@ -316,26 +344,28 @@ class TopSlideEnv(gym.Env):
         }
 
     def _observation(self) -> dict[str, np.ndarray]:
-        q, dq = self.robot.arm_joint_state()
-        fq, fdq = self.robot.finger_joint_state()
+        q, dq = self.robot.joint_state()  # arm then finger joints
         tip_pos, tip_quat = self.robot.fingertip_pose()
         obj_pos, obj_quat = self.task.object_pose(self.sim)
         lin, ang = self.sim.base_velocity("object")
-        raw = {
-            "arm_qpos": q,
-            "arm_qvel": dq,
-            "finger_qpos": fq,
-            "finger_qvel": fdq,
-            "hand_command": np.array([self._u]),
-            "fingertip_pose": np.r_[tip_pos, tip_quat],
-            "object_pose": np.r_[obj_pos, obj_quat],
-            "object_velocity": np.r_[lin, ang],
-            "object_outline": self._outline,
-            "table_outline": self._table_outline,
-            "table_height": np.array([self.task.table.height if self.task.table else 0.0]),
-        }
-        space = self.observation_space.spaces
-        return {
-            k: np.clip(np.asarray(v, np.float32), space[k].low, space[k].high)
-            for k, v in raw.items()
-        }
+        flat = np.concatenate(
+            [
+                q[:7],
+                dq[:7],
+                q[7:],
+                dq[7:],
+                [self._u],
+                tip_pos,
+                tip_quat,
+                obj_pos,
+                obj_quat,
+                lin,
+                ang,
+            ]
+        )
+        flat = np.minimum(np.maximum(flat, self._flat_low), self._flat_high).astype(np.float32)
+        obs = {key: flat[a:b] for key, (a, b) in self._flat_slices.items()}
+        obs["object_outline"] = self._outline.copy()
+        obs["table_outline"] = self._table_outline.copy()
+        obs["table_height"] = np.array([self.task.table.height], dtype=np.float32)
+        return obs

@@ -242,6 +242,10 @@ class Overhang:
     outside: BaseGeometry  # object part outside the table
     centroid_inside: bool  # object's centroid over the table
 
+    def graspable(self, u_star: float) -> bool:
+        """Enough overhang for a side grasp, and the centroid still over the table."""
+        return self.u >= u_star and self.centroid_inside
+
 
 def _ring_segments(ring: shapely.LinearRing) -> np.ndarray:
     """(M, 2, 2) consecutive segments of a ring."""
@@ -266,5 +270,4 @@ def overhang(object_world: shapely.Polygon, table: shapely.Polygon) -> Overhang:
 
 def is_graspable(object_world: shapely.Polygon, table: shapely.Polygon, u_star: float) -> bool:
     """True if the overhang is at least ``u_star`` and the object's centroid is on the table."""
-    o = overhang(object_world, table)
-    return o.u >= u_star and o.centroid_inside
+    return overhang(object_world, table).graspable(u_star)

@@ -155,7 +155,8 @@ class ArmGains:
     Each step a motor drives its joint velocity toward
     ``position_gain * (q_target - q) / dt + velocity_gain * (dq_target - dq)`` (plus dq),
     within the joint's torque limit. With ``gravity_compensation`` the gravity torque
-    (clipped to the same limits) is added as a feedforward every physics step: joint 2 needs
+    (clipped to the same limits), computed at each new arm target, is added as a feedforward
+    every physics step: joint 2 needs
     about 21.7 N m at READY_ARM_Q, more than its 20 N m limit, so without it the arm sags.
     """
 

@@ -1,7 +1,8 @@
 """The WAM arm + T42 hand in a :class:`~slide_gym.sim.Simulation`.
 
 Arm: PyBullet position motors on the 7 joints, capped at the published torque limits, plus
-a gravity-compensation feedforward applied every physics step (see :class:`ArmGains`).
+a gravity-compensation feedforward, updated with each arm target and applied every physics
+step (see :class:`ArmGains`).
 
 Hand: PyBullet has no joint springs, so the finger motors are switched off (VELOCITY_CONTROL,
 force 0) and :meth:`WamT42.apply_hand_torques` applies the spring + tendon torque with
@@ -125,6 +126,10 @@ class WamT42:
             (int(i), float(lim)) for i, lim in zip(self._arm_dof, ARM_TORQUE_LIMITS, strict=True)
         ]
         self._finger_dof_list = [int(i) for i in self._finger_dof]
+        self._feedforward = [0.0] * len(self._movable)
+        # Bound once: BulletClient builds a new partial on every attribute access.
+        self._get_joint_states = c.getJointStates
+        self._set_motors = c.setJointMotorControlArray
         self.reset(np.zeros(7))
         return self.body
 
@@ -208,6 +213,22 @@ class WamT42:
             positionGains=list(g.position_gains),
             velocityGains=list(g.velocity_gains),
         )
+        if g.gravity_compensation:
+            self._update_gravity_feedforward()
+
+    def _update_gravity_feedforward(self) -> None:
+        """Gravity torques at the current configuration, clipped to the torque limits.
+
+        Computed when a new arm target arrives (the control rate: the arm moves a few
+        hundredths of a radian between targets) and applied every physics step.
+        """
+        c = self.sim.client
+        q = [s[0] for s in c.getJointStates(self.body, self._movable)]
+        g = c.calculateInverseDynamics(self.body, q, self._zeros, self._zeros)
+        tau = [0.0] * len(self._movable)
+        for i, limit in self._arm_dof_limits:
+            tau[i] = min(max(g[i], -limit), limit)
+        self._feedforward = tau
 
     def set_hand_command(self, u: float) -> None:
         """Tendon command u, clipped to [0, 1] (1 closes the hand).
@@ -233,23 +254,17 @@ class WamT42:
         Returns the 4 finger torques. This runs every physics step, so it works on plain
         Python floats: NumPy's per-call overhead on 4-element arrays costs more than the math.
         """
-        c = self.sim.client
-        states = c.getJointStates(self.body, self._movable)
+        states = self._get_joint_states(self.body, self._finger_list)
         q = [s[0] for s in states]
         dq = [s[1] for s in states]
         step = self.hand.u_rate * self.sim.physics.timestep
         du = self._u - self._u_applied
         self._u_applied += min(max(du, -step), step)
-        tau = [0.0] * len(states)
-        if self.arm_gains.gravity_compensation:
-            g = c.calculateInverseDynamics(self.body, q, self._zeros, self._zeros)
-            for i, limit in self._arm_dof_limits:
-                tau[i] = min(max(g[i], -limit), limit)
-        fdof = self._finger_dof_list
-        finger = self._finger_torques([q[i] for i in fdof], [dq[i] for i in fdof])
-        for i, t in zip(fdof, finger, strict=True):
+        finger = self._finger_torques(q, dq)
+        tau = list(self._feedforward)
+        for i, t in zip(self._finger_dof_list, finger, strict=True):
             tau[i] = t
-        c.setJointMotorControlArray(self.body, self._movable, pb.TORQUE_CONTROL, forces=tau)
+        self._set_motors(self.body, self._movable, pb.TORQUE_CONTROL, forces=tau)
         return finger
 
     def _finger_torques(self, q: list[float], dq: list[float]) -> list[float]:
@@ -317,6 +332,10 @@ class WamT42:
         q = np.fromiter((s[0] for s in states), float, len(joints))
         dq = np.fromiter((s[1] for s in states), float, len(joints))
         return q, dq
+
+    def joint_state(self) -> tuple[np.ndarray, np.ndarray]:
+        """Angles (11,) and velocities (11,): the 7 arm joints, then FINGER_JOINTS (one call)."""
+        return self._joint_state(self._arm_list + self._finger_list)
 
     def arm_joint_state(self) -> tuple[np.ndarray, np.ndarray]:
         """Arm angles (7,) and velocities (7,)."""

@@ -94,7 +94,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("demo", help="run one scripted episode, write a GIF, print a summary")
     scene_args(p)
-    p.add_argument("--out", type=Path, default=Path("demo.gif"))
+    p.add_argument("--out", type=Path, default=None, help="write a GIF (or MP4) here")
     p.set_defaults(func=_cmd_demo)
 
     p = sub.add_parser("bench", help="benchmarks (results printed as JSON)")

@@ -1,0 +1,58 @@
+"""Public names of the robot-specific top-sliding planner (IK, collision, constraints, regions)."""
+
+from __future__ import annotations
+
+from slide_gym.planning.collision import MODES, CollisionChecker
+from slide_gym.planning.constraints import (
+    ContactBand,
+    SlideConstraints,
+    contact_rotation,
+    finger_b_low,
+    planar_pose,
+)
+from slide_gym.planning.ik import (
+    IKParams,
+    IKTarget,
+    fingertip_chain,
+    grasp_chain,
+    pose_error,
+    solve_ik,
+)
+from slide_gym.planning.kin import FastChain, fast_chain
+from slide_gym.planning.pair import GraspParams, PairValidator, grasp_poses
+from slide_gym.planning.params import SlideParams
+from slide_gym.planning.regions import GoalRegion, StartRegion, goal_band, nominal_seed
+from slide_gym.planning.se2 import se2_compose, se2_inverse, slid_object_pose
+from slide_gym.planning.top_slide import PLANNERS, TopSlidePlanner, TopSlideProblem
+
+__all__ = [
+    "MODES",
+    "PLANNERS",
+    "CollisionChecker",
+    "ContactBand",
+    "FastChain",
+    "GoalRegion",
+    "GraspParams",
+    "IKParams",
+    "IKTarget",
+    "PairValidator",
+    "SlideConstraints",
+    "SlideParams",
+    "StartRegion",
+    "TopSlidePlanner",
+    "TopSlideProblem",
+    "contact_rotation",
+    "fast_chain",
+    "finger_b_low",
+    "fingertip_chain",
+    "goal_band",
+    "grasp_chain",
+    "grasp_poses",
+    "nominal_seed",
+    "planar_pose",
+    "pose_error",
+    "se2_compose",
+    "se2_inverse",
+    "slid_object_pose",
+    "solve_ik",
+]

@@ -1,0 +1,172 @@
+"""Damped-least-squares inverse kinematics, batched over random restarts.
+
+All restarts iterate together as one NumPy batch; each step is clipped to the joint limits.
+Targets give a position and, optionally, some or all axes of an orientation. Besides the
+fingertip chain, :func:`grasp_chain` gives the hand's grasp frame (between the two resting
+fingertips) as a flange chain plus a fixed offset.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from slide_gym.kinematics import robot_chain
+from slide_gym.planning.kin import FastChain, fast_chain
+from slide_gym.robot.model import (
+    ARM_LOWER,
+    ARM_UPPER,
+    BASE_TO_SHOULDER,
+    DH,
+    DISTAL_LENGTH,
+    PIVOT_HEIGHT,
+    PROXIMAL_LENGTH,
+)
+
+GRASP_DEPTH_IN_HAND = PIVOT_HEIGHT + PROXIMAL_LENGTH + DISTAL_LENGTH
+"""Distance (m) along the flange z axis from the flange to the resting fingertips' apexes."""
+WRIST_TO_GRASP = float(DH[6, 2]) + GRASP_DEPTH_IN_HAND
+"""Distance (m) from the wrist centre (joints 5-7 axes) to the grasp frame, along the approach."""
+SHOULDER = np.array([0.0, 0.0, BASE_TO_SHOULDER])
+WRIST_REACH = float(np.hypot(DH[2, 0], DH[2, 2]) + np.hypot(DH[3, 0], DH[4, 2]))
+"""Largest shoulder-to-wrist-centre distance (m) of the WAM (an upper bound)."""
+
+
+@lru_cache(maxsize=1)
+def grasp_chain() -> FastChain:
+    """Kinematics of the grasp frame: flange axes, origin midway between the fingertip apexes.
+
+    Its y axis is the finger-spacing axis (finger A at +y), z the approach direction.
+    """
+    offset = np.eye(4)
+    offset[2, 3] = GRASP_DEPTH_IN_HAND
+    return FastChain(robot_chain("wam_flange"), offset)
+
+
+def fingertip_chain() -> FastChain:
+    """Kinematics of the ``fingertip_contact`` frame (finger A's contact, hand at rest)."""
+    return fast_chain("fingertip_contact")
+
+
+@dataclass(frozen=True)
+class IKTarget:
+    """A tip pose to reach: ``position`` (3,) and optionally ``rotation`` (3, 3).
+
+    ``axes`` lists which columns (0 = x, 1 = y, 2 = z) of ``rotation`` the tip's matching
+    axes must equal; all three give a full orientation, one or two a partial one.
+    """
+
+    position: np.ndarray
+    rotation: np.ndarray | None = None
+    axes: tuple[int, ...] = (0, 1, 2)
+
+    def __post_init__(self) -> None:
+        pos = np.asarray(self.position, dtype=float)
+        if pos.shape != (3,) or not np.isfinite(pos).all():
+            raise ValueError(f"IK target position must be 3 finite numbers, got {self.position}")
+        object.__setattr__(self, "position", pos)
+        if self.rotation is not None:
+            rot = np.asarray(self.rotation, dtype=float)
+            if rot.shape != (3, 3) or not np.allclose(rot.T @ rot, np.eye(3), atol=1e-6):
+                raise ValueError("IK target rotation must be a 3x3 rotation matrix")
+            object.__setattr__(self, "rotation", rot)
+            if not self.axes or not set(self.axes) <= {0, 1, 2}:
+                raise ValueError(f"IK target axes must be a subset of (0, 1, 2), got {self.axes}")
+
+
+@dataclass(frozen=True)
+class IKParams:
+    """Solver settings: restarts, iterations, damping, step limit and tolerances."""
+
+    n_restarts: int = 8
+    max_iters: int = 50
+    damping: float = 0.03
+    max_step: float = 0.4  # rad, largest joint change per iteration
+    pos_tol: float = 1e-5  # m
+    rot_tol: float = 1e-4  # rad
+
+    def __post_init__(self) -> None:
+        for name, value in vars(self).items():
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"IKParams.{name} must be a finite positive number, got {value}")
+        if self.n_restarts < 1 or self.max_iters < 1:
+            raise ValueError("IKParams.n_restarts and max_iters must be >= 1")
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cross product over the last axis (np.cross is slow for small arrays)."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
+    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
+    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return out
+
+
+def pose_error(tip: np.ndarray, target: IKTarget) -> np.ndarray:
+    """Errors (..., 6): position (m) and orientation (rad-like) from tip pose(s) to target."""
+    err = np.zeros((*tip.shape[:-2], 6))
+    err[..., :3] = target.position - tip[..., :3, 3]
+    if target.rotation is not None:
+        for k in target.axes:
+            err[..., 3:] += _cross(tip[..., :3, k], target.rotation[:, k])
+        if len(target.axes) > 1:
+            err[..., 3:] *= 0.5
+    return err
+
+
+def solve_ik(
+    chain: FastChain,
+    target: IKTarget,
+    rng: np.random.Generator,
+    seeds: np.ndarray | None = None,
+    params: IKParams | None = None,
+    deadline: float = math.inf,
+) -> np.ndarray | None:
+    """Joint angles (7,) reaching ``target``, or None if no restart converged.
+
+    The batch holds the given ``seeds`` (k, 7) first, then uniform random restarts drawn from
+    ``rng`` up to ``params.n_restarts``. Returns the lowest-index converged restart. Gives up
+    (None) once ``time.perf_counter()`` passes ``deadline``.
+    """
+    p = params or IKParams()
+    seeds = np.empty((0, 7)) if seeds is None else np.atleast_2d(np.asarray(seeds, dtype=float))
+    n_rand = max(0, p.n_restarts - len(seeds))
+    q = np.vstack(
+        [np.clip(seeds, ARM_LOWER, ARM_UPPER), rng.uniform(ARM_LOWER, ARM_UPPER, (n_rand, 7))]
+    )
+    eye = np.eye(6) * p.damping**2
+    partial = target.rotation is not None and len(target.axes) == 1
+    for _ in range(p.max_iters):
+        if time.perf_counter() >= deadline:
+            return None
+        tip, jac = chain.jacobian(q)
+        err = pose_error(tip, target)
+        pos_n = np.linalg.norm(err[:, :3], axis=1)
+        rot_n = np.linalg.norm(err[:, 3:], axis=1)
+        done = (pos_n <= p.pos_tol) & (rot_n <= p.rot_tol)
+        if done.any():
+            return q[int(np.argmax(done))].copy()
+        if target.rotation is None:
+            jac = jac[:, :3]
+            err = err[:, :3]
+        elif partial:
+            # Rotation about the matched axis itself is free: drop it from the angular rows.
+            a = tip[:, :3, target.axes[0]]
+            proj = np.eye(3) - a[:, :, None] * a[:, None, :]
+            jac = np.concatenate([jac[:, :3], proj @ jac[:, 3:]], axis=1)
+        m = jac.shape[1]
+        jjt = jac @ np.swapaxes(jac, 1, 2) + eye[:m, :m]
+        dq = np.einsum("bji,bj->bi", jac, np.linalg.solve(jjt, err[..., None])[..., 0])
+        biggest = np.abs(dq).max(axis=1, keepdims=True)
+        dq *= np.minimum(1.0, p.max_step / np.maximum(biggest, 1e-12))
+        q = np.clip(q + dq, ARM_LOWER, ARM_UPPER)
+    tip = chain.forward(q)
+    err = pose_error(tip, target)
+    done = (np.linalg.norm(err[:, :3], axis=1) <= p.pos_tol) & (
+        np.linalg.norm(err[:, 3:], axis=1) <= p.rot_tol
+    )
+    return q[int(np.argmax(done))].copy() if done.any() else None

@@ -1,0 +1,215 @@
+"""IsPairValid (IV-C.1): where a start/goal pair slides the plate, and can it then be grasped.
+
+For a connected pair (phi_s, phi_g) the plate's final pose follows from Eq. 2 in SE(2). The
+pair is valid when the placed plate overhangs a table edge by ``u >= u_star`` with its
+centroid still on the table, a side grasp perpendicular to that edge at the overhang's centre
+has an IK solution that is collision-free (plate included), and the hand can get there from
+phi_g: lift the fingertip off the plate, then rise above the table outside the edge, descend
+and approach (or, for grasps at the edge of the workspace where no stand-off pose exists, go
+straight to the grasp). Each leg is a checked joint-space straight line; if none works, a
+short unconstrained CBiRRT (the search core) joins the lifted configuration and the grasp.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import shapely
+
+from slide_gym.geometry import ObjectShape, TableShape, overhang, transform_polygon
+from slide_gym.planning.collision import CollisionChecker
+from slide_gym.planning.constraints import planar_pose
+from slide_gym.planning.ik import (
+    SHOULDER,
+    WRIST_REACH,
+    WRIST_TO_GRASP,
+    IKParams,
+    IKTarget,
+    grasp_chain,
+    solve_ik,
+)
+from slide_gym.planning.kin import FastChain
+from slide_gym.planning.result import SearchParams
+from slide_gym.planning.se2 import slid_object_pose
+from slide_gym.planning.search import ForestConnectPlanner, SearchFunctions
+from slide_gym.robot.model import ARM_LOWER, ARM_UPPER
+
+
+@dataclass(frozen=True)
+class GraspParams:
+    """Side grasp geometry and the transfer from phi_g to it (m, rad, s)."""
+
+    depth: float = 0.015  # the fingertips reach this far in from the overhang's outer end
+    edge_clearance: float = 0.005  # least gap between the fingertips and the table edge
+    lift: float = 0.08  # fingertip lift off the plate after sliding
+    retreat: float = 0.04  # pre-grasp stand-off outside the edge, along the approach
+    rise: float = 0.08  # the pre-grasp is approached from this high above the grasp
+    resolution: float = 0.02  # largest joint change between collision checks on a leg
+    transfer_budget: float = 0.25  # time for the fallback planner per pair
+
+    def __post_init__(self) -> None:
+        for name, value in vars(self).items():
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"GraspParams.{name} must be a finite positive number: {value}")
+
+
+def grasp_poses(
+    outside: shapely.Geometry, edge: np.ndarray, z_mid: float, p: GraspParams
+) -> list[tuple[np.ndarray, np.ndarray]] | None:
+    """Grasp-frame targets (position, rotation) for an overhang, palm y up and down.
+
+    The grasp frame's z (approach) is horizontal, perpendicular to ``edge`` and points into
+    the table; its origin (midway between the fingertips) sits on the edge normal through the
+    overhang's centroid, ``depth`` in from the overhang's outer end and at the plate's
+    mid-height ``z_mid``. None when too little plate lies on that normal.
+    """
+    a, b = np.asarray(edge, dtype=float)
+    e = (b - a) / np.linalg.norm(b - a)
+    n = np.array([e[1], -e[0]])
+    c = np.array(outside.centroid.coords[0])
+    if np.dot(c - a, n) < 0.0:
+        n = -n  # outward normal: toward the overhanging part
+    foot = a + np.dot(c - a, e) * e
+    ray = shapely.LineString([foot - 0.5 * n, foot + 0.5 * n])
+    hits = shapely.get_coordinates(outside.intersection(ray))
+    if len(hits) == 0:
+        return None
+    s_max = float(np.max((hits - a) @ n))
+    s_tip = max(s_max - p.depth, p.edge_clearance)
+    if s_max - s_tip < 0.5 * p.depth:
+        return None
+    pos = np.array([*(foot + s_tip * n), z_mid])
+    z_axis = np.array([-n[0], -n[1], 0.0])
+    out = []
+    for up in (1.0, -1.0):
+        y_axis = np.array([0.0, 0.0, up])
+        out.append((pos, np.column_stack([np.cross(y_axis, z_axis), y_axis, z_axis])))
+    return out
+
+
+class PairValidator:
+    """Callable ``(q_s, q_g) -> (ok, info)`` for the search; ``info`` explains the verdict."""
+
+    def __init__(
+        self,
+        obj: ObjectShape,
+        table: TableShape,
+        object_start: np.ndarray,
+        u_star: float,
+        tip_chain: FastChain,
+        checker: CollisionChecker,
+        rng: np.random.Generator,
+        grasp: GraspParams | None = None,
+        ik_params: IKParams | None = None,
+    ):
+        self.obj, self.table = obj, table
+        self.object_start = np.asarray(object_start, dtype=float)
+        self.u_star = float(u_star)
+        self.tip_chain = tip_chain
+        self.hand = grasp_chain()
+        self.checker = checker
+        self.rng = rng
+        self.grasp = grasp or GraspParams()
+        self.ik_params = ik_params or IKParams()
+        self.deadline = math.inf  # set by the planner: the fallback never runs past it
+        self.counts = dict.fromkeys(
+            ("overhang", "reach", "grasp_ik", "transfer", "timeout", "fallback", "valid"), 0
+        )
+
+    def object_goal(self, q_s: np.ndarray, q_g: np.ndarray) -> np.ndarray:
+        """Eq. 2: the plate pose (x, y, yaw) after sliding from phi_s to phi_g."""
+        gammas = planar_pose(self.tip_chain.forward(np.stack([q_s, q_g])))
+        return slid_object_pose(gammas[0], gammas[1], self.object_start)
+
+    def __call__(self, q_s: np.ndarray, q_g: np.ndarray) -> tuple[bool, dict[str, Any]]:
+        goal = self.object_goal(q_s, q_g)
+        placed = transform_polygon(self.obj.polygon, *goal)
+        ov = overhang(placed, self.table.polygon)
+        info: dict[str, Any] = {"object_goal_pose": goal, "overhang_m": ov.u}
+        if ov.u < self.u_star or not ov.centroid_inside or ov.edge is None:
+            self.counts["overhang"] += 1
+            why = "centroid off the table" if not ov.centroid_inside else "overhang below u_star"
+            return False, {**info, "reason": why}
+        info["edge"] = ov.edge
+        z_mid = self.table.height + 0.5 * self.obj.thickness
+        poses = grasp_poses(ov.outside, ov.edge, z_mid, self.grasp)
+        if poses is None:
+            self.counts["overhang"] += 1
+            return False, {**info, "reason": "too little plate on the grasp line"}
+        wrist = poses[0][0] - WRIST_TO_GRASP * poses[0][1][:, 2]
+        if np.linalg.norm(wrist - SHOULDER) > WRIST_REACH:
+            self.counts["reach"] += 1
+            return False, {**info, "reason": "grasp pose out of the arm's reach"}
+        self.checker.place_object(goal)
+        reason, counter = "no collision-free IK solution for the grasp", "grasp_ik"
+        try:
+            for pos, rot in poses:
+                if time.perf_counter() >= self.deadline:
+                    self.counts["timeout"] += 1
+                    return False, {**info, "reason": "time budget ran out during validation"}
+                q_grasp = self._ik(pos, rot, q_g)
+                if q_grasp is None or self.checker.collides(q_grasp, "full"):
+                    continue
+                path = self._transfer(q_g, q_grasp, pos, rot)
+                if path is not None:
+                    self.counts["valid"] += 1
+                    return True, {**info, "grasp_config": q_grasp, "transfer_path": path}
+                reason, counter = "no collision-free motion to the grasp", "transfer"
+        finally:
+            self.checker.place_object(None)
+        self.counts[counter] += 1
+        return False, {**info, "reason": reason}
+
+    # -------------------------------------------------------------- helpers
+    def _ik(self, pos: np.ndarray, rot: np.ndarray, seed: np.ndarray, chain=None):
+        chain = chain or self.hand
+        target = IKTarget(pos, rot)
+        return solve_ik(chain, target, self.rng, seed[None], self.ik_params, self.deadline)
+
+    def _transfer(self, q_g, q_grasp, pos, rot) -> np.ndarray | None:
+        """phi_g -> lifted -> high pre-grasp -> pre-grasp -> grasp (or lifted -> grasp, or a
+        fallback plan)."""
+        p = self.grasp
+        tip = self.tip_chain.forward(q_g)
+        lifted = self._ik(tip[:3, 3] + [0.0, 0.0, p.lift], tip[:3, :3], q_g, self.tip_chain)
+        if lifted is None or not self.checker.segment_free(q_g, lifted, "sliding", p.resolution):
+            return None
+        if time.perf_counter() >= self.deadline:
+            return None
+        if self.checker.collides(lifted, "full"):
+            return None
+        back = pos - p.retreat * rot[:, 2]
+        pre = self._ik(back, rot, q_grasp)
+        high = self._ik(back + [0.0, 0.0, p.rise], rot, q_grasp) if pre is not None else None
+        routes = [[lifted, high, pre, q_grasp]] if high is not None else []
+        routes.append([lifted, q_grasp])  # grasps at the edge of the workspace: no stand-off
+        for route in routes:
+            if time.perf_counter() >= self.deadline:
+                return None
+            legs = zip(route[:-1], route[1:], strict=True)
+            if all(self.checker.segment_free(a, b, "full", p.resolution) for a, b in legs):
+                return np.array([q_g, *route])
+        return self._fallback(q_g, lifted, q_grasp)
+
+    def _fallback(self, q_g, lifted, q_grasp) -> np.ndarray | None:
+        budget = min(self.grasp.transfer_budget, self.deadline - time.perf_counter())
+        if budget <= 1e-3:
+            return None
+        self.counts["fallback"] += 1
+        res = self.grasp.resolution
+        fns = SearchFunctions(
+            sample_config=lambda rng: rng.uniform(ARM_LOWER, ARM_UPPER),
+            project=lambda q, near: q,
+            collides=lambda q: self.checker.collides(q, "full"),
+            motion_valid=lambda a, b: self.checker.segment_free(a, b, "full", res),
+        )
+        params = SearchParams(step_size=0.15, n_star=1)
+        planner = ForestConnectPlanner("cbirrt", fns, params, self.rng, start=lifted, goal=q_grasp)
+        result = planner.solve(budget)
+        if not result.solved:
+            return None
+        return np.vstack([q_g[None], result.path])

@@ -1,0 +1,87 @@
+"""Parameters of the top-sliding planner, with the paper's defaults where it gives them."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from numbers import Real
+from typing import Any
+
+import numpy as np
+
+from slide_gym.planning.ik import IKParams
+from slide_gym.planning.pair import GraspParams
+from slide_gym.task import TaskParams
+
+
+@dataclass(frozen=True)
+class SlideParams:
+    """Planner parameters (SI units, radians); defaults follow the paper where it gives one.
+
+    ``beta0 = 0.9`` rad (52 deg) is our choice (the paper gives none): finger B sits 52 mm
+    from finger A across the hand, so with the pitch at most beta0 + dbeta = 1.0 rad and the
+    contact up to dz_hi = 25 mm below the plate top, finger B's rounded tip still clears the
+    plate top (52 mm * cos(1.0) - 10.5 mm * (1 - sin(1.0)) = 26.4 mm > 25 mm). Steeper pitches
+    press harder but make the idle finger hit the plate.
+    """
+
+    beta0: float = 0.9
+    dbeta: float = 0.1  # paper: Delta_beta = 0.1 rad
+    dz: tuple[float, float] = (0.005, 0.025)  # paper: Delta_Z = [0.5, 2.5] cm
+    n_star: int = 100  # paper: N* = 100
+    u_star: float = TaskParams.u_star
+    step: float = 0.1  # rad, CBiRRT extension step (weighted joint distance)
+    tolerance: float = 1e-4  # projection tolerance (rad on the axes' dot products, m)
+    cloud_spacing: float = 0.01  # m, grid spacing of P_o
+    goal_band_width: float = 0.05  # m, width of the band P_g inside the table outline
+    goal_band_reachable: bool = True  # keep only edge stretches with a reachable side grasp
+    path_resolution: float = 0.01  # m, largest fingertip move between returned path states
+    distance_weights: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0, 0.6, 0.6, 0.3)
+    ik: IKParams = field(default_factory=IKParams)
+    grasp: GraspParams = field(default_factory=GraspParams)
+
+    def __post_init__(self) -> None:
+        for name in ("beta0", "dbeta", "u_star", "step", "tolerance", "cloud_spacing"):
+            _finite(getattr(self, name), name, positive=name != "dbeta")
+        for name in ("goal_band_width", "path_resolution"):
+            _finite(getattr(self, name), name, positive=True)
+        try:
+            lo, hi = (float(v) for v in self.dz)
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"dz must be a pair (dz_lo, dz_hi) of numbers, got {self.dz!r}"
+            ) from None
+        _finite(lo, "dz_lo")
+        _finite(hi, "dz_hi")
+        if lo < 0.0 or hi < lo:
+            raise ValueError(f"dz must satisfy 0 <= dz_lo <= dz_hi, got dz = ({lo}, {hi})")
+        object.__setattr__(self, "dz", (lo, hi))
+        if not (self.beta0 - self.dbeta > 0.0 and self.beta0 + self.dbeta < math.pi / 2):
+            raise ValueError(
+                f"beta0 +- dbeta must stay inside (0, pi/2), got {self.beta0} +- {self.dbeta}"
+            )
+        if isinstance(self.n_star, bool) or not isinstance(self.n_star, int) or self.n_star < 1:
+            raise ValueError(f"n_star must be an integer >= 1, got {self.n_star!r}")
+        w = np.asarray(self.distance_weights, dtype=float)
+        if w.shape != (7,) or not (np.isfinite(w).all() and (w > 0).all()):
+            raise ValueError("distance_weights must be 7 finite positive numbers")
+
+    def contact_height_range(self, z_surface: float) -> tuple[float, float]:
+        """The contact-height band [z_s - dz_hi, z_s - dz_lo] for plate-top height z_s."""
+        return (z_surface - self.dz[1], z_surface - self.dz[0])
+
+    def as_dict(self) -> dict[str, Any]:
+        """Every value as plain Python data (for the result's ``extra``)."""
+        out = asdict(self)
+        out["dz"] = list(self.dz)
+        out["distance_weights"] = list(self.distance_weights)
+        return out
+
+
+def _finite(value: Any, name: str, positive: bool = False) -> None:
+    if isinstance(value, bool) or not isinstance(value, Real) or not math.isfinite(value):
+        raise ValueError(f"{name} must be a finite number, got {value!r}")
+    if positive and value <= 0:
+        raise ValueError(f"{name} must be > 0, got {value!r}")
+    if value < 0:
+        raise ValueError(f"{name} must be >= 0, got {value!r}")

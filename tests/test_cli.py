@@ -53,3 +53,54 @@ def test_demo_runs_and_succeeds(tmp_path: Path, capsys: pytest.CaptureFixture[st
     summary = json.loads(capsys.readouterr().out)
     assert summary["success"] is True
     assert summary["overhang_m"] >= 0.03
+
+
+PLAN_KEYS = {
+    "status",
+    "planner",
+    "planning_time_s",
+    "seed",
+    "object_start_pose",
+    "object_goal_pose",
+    "overhang_m",
+    "start_config",
+    "goal_config",
+    "grasp_config",
+    "path",
+    "table_polygon",
+    "object_thickness",
+    "parameters",
+    "stats",
+}
+
+
+def test_plan_json_contract(capsys: pytest.CaptureFixture[str]) -> None:
+    args = ["plan", "--object", "square", "--table", "square", "--seed", "3", "--json"]
+    assert main(args) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert PLAN_KEYS <= set(out)
+    assert out["status"] == "solved"
+    assert len(out["start_config"]) == len(out["goal_config"]) == len(out["grasp_config"]) == 7
+    assert all(len(q) == 7 for q in out["path"]) and len(out["path"]) >= 2
+    params = out["parameters"]
+    for key in ("beta0", "dbeta", "dz", "u_star", "n_star", "contact_height_range"):
+        assert key in params
+    lo, hi = params["contact_height_range"]
+    assert lo < hi
+    assert out["overhang_m"] >= params["u_star"]
+
+
+@pytest.mark.parametrize(
+    ("extra", "match"),
+    [
+        (["--time-budget", "nan"], "budget"),
+        (["--time-budget", "0"], "budget"),
+        (["--dz", "0.03,0.01"], "dz"),
+        (["--object-pose", "0.6,0.24,0"], "off table"),
+    ],
+)
+def test_plan_bad_input_exits_2(
+    extra: list[str], match: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["plan", "--object", "square", "--table", "square", *extra]) == 2
+    assert match in capsys.readouterr().err

@@ -196,6 +196,9 @@ class PairValidator:
         return self._fallback(q_g, lifted, q_grasp)
 
     def _fallback(self, q_g, lifted, q_grasp) -> np.ndarray | None:
+        # Its own stream, seeded by exactly one draw: however many samples a time-capped
+        # fallback takes, the planner's main random stream stays the same.
+        rng = np.random.default_rng(self.rng.integers(2**63))
         budget = min(self.grasp.transfer_budget, self.deadline - time.perf_counter())
         if budget <= 1e-3:
             return None
@@ -208,7 +211,7 @@ class PairValidator:
             motion_valid=lambda a, b: self.checker.segment_free(a, b, "full", res),
         )
         params = SearchParams(step_size=0.15, n_star=1)
-        planner = ForestConnectPlanner("cbirrt", fns, params, self.rng, start=lifted, goal=q_grasp)
+        planner = ForestConnectPlanner("cbirrt", fns, params, rng, start=lifted, goal=q_grasp)
         result = planner.solve(budget)
         if not result.solved:
             return None

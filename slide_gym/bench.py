@@ -181,18 +181,24 @@ def bench_plan(
     return summary
 
 
+def _planner_times(
+    rows: list[dict[str, Any]], planner: str
+) -> tuple[list[dict[str, Any]], np.ndarray]:
+    """One planner's rows and their planning times (inf where not solved)."""
+    mine = [r for r in rows if r["case"]["planner"] == planner]
+    times = np.array([r["planning_time_s"] if r["status"] == "solved" else np.inf for r in mine])
+    return mine, times
+
+
 def summarize_plan(
     rows: list[dict[str, Any]], planners: list[str], time_budget: float
 ) -> dict[str, Any]:
     """Per planner: runs, success rate at each budget mark, median planning time."""
     table: dict[str, Any] = {}
     for planner in planners:
-        mine = [r for r in rows if r["case"]["planner"] == planner]
+        mine, times = _planner_times(rows, planner)
         if not mine:
             continue
-        times = np.array(
-            [r["planning_time_s"] if r["status"] == "solved" else np.inf for r in mine]
-        )
         marks = [t for t in BUDGET_MARKS if t <= time_budget]
         table[planner] = {
             "runs": len(mine),
@@ -221,12 +227,9 @@ def plot_success_curves(
     grid = np.linspace(0.0, time_budget, 400)
     fig, ax = plt.subplots(figsize=(6, 4))
     for planner in planners:
-        mine = [r for r in rows if r["case"]["planner"] == planner]
+        mine, times = _planner_times(rows, planner)
         if not mine:
             continue
-        times = np.array(
-            [r["planning_time_s"] if r["status"] == "solved" else np.inf for r in mine]
-        )
         ax.plot(grid, [(times <= t).mean() for t in grid], label=f"{planner} (n={len(mine)})")
     ax.set_xlabel("planning time budget (s)")
     ax.set_ylabel("success rate")

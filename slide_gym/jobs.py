@@ -62,6 +62,9 @@ def run_cases(
         print(
             f"{len(done)} done already, {len(todo)} to run on {workers} worker(s)", file=sys.stderr
         )
+    if out.exists() and out.stat().st_size and not out.read_bytes().endswith(b"\n"):
+        with out.open("a") as f:  # end a line torn by a kill, so new results start clean
+            f.write("\n")
     try:
         with out.open("a") as f, tqdm(total=len(todo), desc=desc, file=sys.stderr) as bar:
             if workers == 1:

@@ -1,0 +1,1 @@
+"""Policies for slide-gym environments: planner-driven experts and learned agents (to come)."""

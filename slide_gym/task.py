@@ -65,6 +65,9 @@ class SceneState:
     touching_finger_a: bool
     touching_finger_b: bool
     fell_off: bool
+    object_position: np.ndarray  # (3,) bottom-face centroid, world
+    object_quat: np.ndarray  # (4,) xyzw
+    object_velocity: np.ndarray  # (6,) linear, angular
 
 
 def check_scene(obj: ObjectShape, table: TableShape) -> None:
@@ -196,7 +199,7 @@ class TopSlideTask:
             )
         )
         u, centroid_inside, graspable = self._placement(float(pos[0]), float(pos[1]), yaw)
-        lin, _ = sim.base_velocity("object")
+        lin, ang = sim.base_velocity("object")
         contacts = sim.contact_points("object", "robot")
         links = {c[4] for c in contacts}
         lift = float(pos[2] - self.table.height)
@@ -212,6 +215,9 @@ class TopSlideTask:
             touching_finger_a=bool(links.intersection(finger_a_links)),
             touching_finger_b=bool(links.intersection(finger_b_links)),
             fell_off=bool(lift < -0.02),
+            object_position=pos,
+            object_quat=quat,
+            object_velocity=np.concatenate([lin, ang]),
         )
 
     def _placement(self, x: float, y: float, yaw: float) -> tuple[float, bool, bool]:

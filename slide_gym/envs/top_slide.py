@@ -346,8 +346,8 @@ class TopSlideEnv(gym.Env):
     def _observation(self) -> dict[str, np.ndarray]:
         q, dq = self.robot.joint_state()  # arm then finger joints
         tip_pos, tip_quat = self.robot.fingertip_pose()
-        obj_pos, obj_quat = self.task.object_pose(self.sim)
-        lin, ang = self.sim.base_velocity("object")
+        s = self._state  # the object as read once after this step
+        assert s is not None
         flat = np.concatenate(
             [
                 q[:7],
@@ -357,10 +357,9 @@ class TopSlideEnv(gym.Env):
                 [self._u],
                 tip_pos,
                 tip_quat,
-                obj_pos,
-                obj_quat,
-                lin,
-                ang,
+                s.object_position,
+                s.object_quat,
+                s.object_velocity,
             ]
         )
         flat = np.minimum(np.maximum(flat, self._flat_low), self._flat_high).astype(np.float32)

@@ -126,11 +126,22 @@ class PairValidator:
         return slid_object_pose(gammas[0], gammas[1], self.object_start)
 
     def __call__(self, q_s: np.ndarray, q_g: np.ndarray) -> tuple[bool, dict[str, Any]]:
-        goal = self.object_goal(q_s, q_g)
+        return self.check_placement(self.object_goal(q_s, q_g), q_g)
+
+    def check_placement(
+        self, goal: np.ndarray, q_g: np.ndarray, u_star: float | None = None
+    ) -> tuple[bool, dict[str, Any]]:
+        """Is the plate graspable at ``goal`` (x, y, yaw), and reachable from ``q_g``?
+
+        The second half of the pair check; an executor also calls it with the plate's measured
+        pose after a real slide, to re-aim the grasp (``u_star`` overrides the validator's).
+        """
+        u_star = self.u_star if u_star is None else float(u_star)
+        goal = np.asarray(goal, dtype=float)
         placed = transform_polygon(self.obj.polygon, *goal)
         ov = overhang(placed, self.table.polygon)
         info: dict[str, Any] = {"object_goal_pose": goal, "overhang_m": ov.u}
-        if ov.u < self.u_star or not ov.centroid_inside or ov.edge is None:
+        if ov.u < u_star or not ov.centroid_inside or ov.edge is None:
             self.counts["overhang"] += 1
             why = "centroid off the table" if not ov.centroid_inside else "overhang below u_star"
             return False, {**info, "reason": why}

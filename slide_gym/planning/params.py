@@ -36,6 +36,8 @@ class SlideParams:
     goal_band_width: float = 0.05  # m, width of the band P_g inside the table outline
     goal_band_reachable: bool = True  # keep only edge stretches with a reachable side grasp
     path_resolution: float = 0.01  # m, largest fingertip move between returned path states
+    press_radius: float | None = None  # m: press only near the centroid (None: anywhere, paper)
+    shortcut_attempts: int = 40  # constrained shortcuts tried on the found slide (0: none)
     distance_weights: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0, 0.6, 0.6, 0.3)
     ik: IKParams = field(default_factory=IKParams)
     grasp: GraspParams = field(default_factory=GraspParams)
@@ -62,6 +64,11 @@ class SlideParams:
             )
         if isinstance(self.n_star, bool) or not isinstance(self.n_star, int) or self.n_star < 1:
             raise ValueError(f"n_star must be an integer >= 1, got {self.n_star!r}")
+        if self.press_radius is not None:
+            _finite(self.press_radius, "press_radius", positive=True)
+        attempts = self.shortcut_attempts
+        if isinstance(attempts, bool) or not isinstance(attempts, int) or attempts < 0:
+            raise ValueError(f"shortcut_attempts must be an integer >= 0, got {attempts!r}")
         w = np.asarray(self.distance_weights, dtype=float)
         if w.shape != (7,) or not (np.isfinite(w).all() and (w > 0).all()):
             raise ValueError("distance_weights must be 7 finite positive numbers")

@@ -1,0 +1,349 @@
+"""One episode of the planner-driven expert: plan, press, slide, re-aim, grasp, lift.
+
+:class:`SlideGraspExpert` turns a :class:`~slide_gym.planning.TopSlidePlanner` result into the
+environment's joint-increment actions. It reads everything from observations (scene outlines,
+object pose, fingertip pose) and keeps its own copy of the environment's arm targets.
+
+Phases: ``approach`` (joint-space move to a pose above the press point, via a raised pose if
+the direct move would hit something), ``press`` (straight down to the planned contact depth),
+``slide`` (the planned path), then a check of the real plate pose against Eq. 2's prediction.
+A graspable plate gets a grasp re-aimed at its measured pose: ``lift_off``, ``transfer`` (around
+to a stand-off outside the table edge), ``approach_grasp``, ``close``, ``lift``. A plate left
+ungraspable is re-planned from where it lies, within the total planning budget.
+
+While pressing and sliding the fingertip drags the plate, and finger compliance shifts the tip
+sideways as it is pressed; a small integral loop on the observed fingertip position adds a
+Cartesian correction to the planned joint targets so the real tip follows the planned one.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from collections import deque
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from agents.scene import SceneLibrary
+from agents.trajectory import Segment, time_segment
+from slide_gym.geometry import ObjectShape, TableShape, overhang, transform_polygon
+from slide_gym.planning.api import (
+    IKTarget,
+    SlideParams,
+    TopSlidePlanner,
+    TopSlideProblem,
+    fingertip_chain,
+    grasp_chain,
+    planar_pose,
+    slid_object_pose,
+    solve_ik,
+)
+from slide_gym.planning.kin import FastChain
+from slide_gym.robot.model import ARM_LOWER, ARM_UPPER
+
+EXPERT_SLIDE_PARAMS = SlideParams(dz=(0.012, 0.025), press_radius=0.015, u_star=0.045)
+"""Planner settings the expert uses by default: a contact depth band deep enough that the
+fingertip keeps dragging the plate (shallow presses slip), and press points within 1.5 cm of
+the plate's centroid (the plate then hardly spins about the fingertip), and a planned overhang
+of 4.5 cm, 1.5 cm more than the task's u*, as a margin for the slide's error."""
+
+
+@dataclass(frozen=True)
+class ExpertParams:
+    """Execution speeds, heights and gains (SI units)."""
+
+    approach_speed: float = 1.0  # rad/s, free-space joint speed
+    pre_contact_height: float = 0.05  # m above the press point before pressing
+    press_speed: float = 0.02  # m/s fingertip speed while pressing
+    press_hold_s: float = 0.3
+    slide_speed: float = 0.03  # m/s fingertip speed along the slide
+    transfer_speed: float = 0.6  # rad/s
+    settle_s: float = 0.5  # s at the stand-off pose: the arm settles before the approach
+    grasp_speed: float = 0.04  # m/s on the final approach to the grasp
+    close_s: float = 0.8  # hand closing time before lifting
+    lift: float = 0.12  # m the grasp frame rises
+    lift_speed: float = 0.05  # m/s
+    tip_gain: float = 0.3  # per control step, integral gain of the fingertip loop
+    max_correction: float = 0.04  # m, largest Cartesian correction of the fingertip
+    max_replans: int = 2
+    grasp_u_star: float = 0.032  # m, least real overhang to go for the grasp (task: 0.03)
+
+    def __post_init__(self) -> None:
+        for name, value in dataclasses.asdict(self).items():
+            if name == "max_replans":
+                if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+                    raise ValueError(f"max_replans must be an integer >= 0, got {value!r}")
+            elif not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ValueError(f"ExpertParams.{name} must be a finite positive number: {value}")
+
+
+def quat_yaw(quat: np.ndarray) -> float:
+    """Yaw (rad) of an xyzw quaternion."""
+    x, y, z, w = (float(v) for v in quat)
+    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+
+
+def wrap_angle(a: float) -> float:
+    """``a`` wrapped to [-pi, pi)."""
+    return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+@dataclass
+class _Step:
+    q: np.ndarray
+    hand: float
+    phase: str
+    track: bool
+
+
+class SlideGraspExpert:
+    """The planner as a closed-loop controller for one episode (see the module docstring).
+
+    Args:
+        planner: ``"regions"``, ``"cbirrt"`` or ``"cbirrt2"``.
+        time_budget: total planning time (s) over the first plan and any replans.
+        slide_params: planner parameters.
+        params: execution parameters.
+        seed: seeds the planner and the expert's own IK restarts (with the observed pose).
+        library: known shapes for recognising the scene.
+        control_dt: seconds per environment step; ``max_joint_step``: the env's action scale.
+    """
+
+    def __init__(
+        self,
+        planner: str,
+        time_budget: float,
+        slide_params: SlideParams,
+        params: ExpertParams,
+        seed: int,
+        library: SceneLibrary,
+        control_dt: float,
+        max_joint_step: float,
+    ):
+        self.planner_name, self.time_budget = planner, float(time_budget)
+        self.slide_params, self.params, self.seed = slide_params, params, int(seed)
+        self.library, self.dt, self.max_joint_step = library, control_dt, max_joint_step
+        self.tip: FastChain = fingertip_chain()
+        self.hand: FastChain = grasp_chain()
+        self.queue: deque[_Step] = deque()
+        self.phase = "plan"
+        self.q_cmd: np.ndarray | None = None
+        self.hand_cmd = 0.0
+        self.correction = np.zeros(2)
+        self.planner: TopSlidePlanner | None = None
+        self.obj: ObjectShape | None = None
+        self.table: TableShape | None = None
+        self.rng = np.random.default_rng(self.seed)
+        self.report: dict[str, Any] = {
+            "planned": False,
+            "replans": 0,
+            "planning_time_s": 0.0,
+            "plan_status": None,
+            "failure": None,
+            "object_predicted_pose": None,
+            "object_slid_pose": None,
+            "slide_error_m": None,
+            "slide_error_rad": None,
+            "events": [],
+        }
+
+    # ------------------------------------------------------------------ act
+    def act(self, obs: dict[str, np.ndarray]) -> np.ndarray:
+        """The next action (8,) for observation ``obs``."""
+        if self.q_cmd is None:
+            self.q_cmd = np.asarray(obs["arm_qpos"], dtype=float).copy()
+            self.obj = self.library.object_from(obs["object_outline"])
+            self.table = self.library.table_from(obs["table_outline"], obs["table_height"][0])
+        while not self.queue and self.phase not in ("done", "failed"):
+            self._advance(obs)
+        if not self.queue:
+            return self._action(self.q_cmd, self.hand_cmd)
+        step = self.queue.popleft()
+        self.phase = step.phase
+        target = step.q + self._track(step.q, obs) if step.track else step.q
+        if not self.queue or not self.queue[0].track:
+            self.correction[:] = 0.0  # the correction is now part of the command
+        return self._action(target, step.hand)
+
+    def _action(self, target: np.ndarray, hand: float) -> np.ndarray:
+        assert self.q_cmd is not None
+        target = np.clip(target, ARM_LOWER, ARM_UPPER)
+        delta = np.clip((target - self.q_cmd) / self.max_joint_step, -1.0, 1.0)
+        self.q_cmd = np.clip(self.q_cmd + self.max_joint_step * delta, ARM_LOWER, ARM_UPPER)
+        self.hand_cmd = hand
+        return np.r_[delta, 2.0 * hand - 1.0].astype(np.float32)
+
+    def _track(self, q_plan: np.ndarray, obs: dict[str, np.ndarray]) -> np.ndarray:
+        """Joint offset that moves the real fingertip onto the planned one (xy only)."""
+        t, jac = self.tip.jacobian(q_plan)
+        error = t[:2, 3] - np.asarray(obs["fingertip_pose"][:2], dtype=float)
+        limit = self.params.max_correction
+        self.correction = np.clip(self.correction + self.params.tip_gain * error, -limit, limit)
+        twist = np.r_[self.correction, 0.0, 0.0, 0.0, 0.0]
+        return jac.T @ np.linalg.solve(jac @ jac.T + 1e-4 * np.eye(6), twist)
+
+    # --------------------------------------------------------------- stages
+    def _advance(self, obs: dict[str, np.ndarray]) -> None:
+        """Queue the next stage's targets (called when the queue runs dry)."""
+        if self.phase == "plan":
+            self._plan(obs)
+        elif self.phase == "slide":
+            self._after_slide(obs)
+        elif self.phase == "lift_off_replan":
+            self._plan(obs)
+        elif self.phase == "lift":
+            self.phase = "done"
+        else:
+            self._fail(f"nothing follows phase {self.phase!r}")
+
+    def _fail(self, why: str) -> None:
+        self.report["failure"] = why
+        self.phase = "failed"
+        if self.planner is not None:
+            self.planner.close()
+            self.planner = None
+
+    def _object_pose(self, obs: dict[str, np.ndarray]) -> np.ndarray:
+        pose = obs["object_pose"]
+        return np.array([float(pose[0]), float(pose[1]), quat_yaw(pose[3:7])])
+
+    def _plan(self, obs: dict[str, np.ndarray]) -> None:
+        assert self.obj is not None and self.table is not None and self.q_cmd is not None
+        budget = self.time_budget - self.report["planning_time_s"]
+        if budget <= 0.05:
+            return self._fail("planning budget used up")
+        pose = self._object_pose(obs)
+        replan = self.report["replans"] > 0
+        try:
+            problem = TopSlideProblem(
+                self.obj, self.table, pose, self.slide_params, allow_overhang=replan
+            )
+        except ValueError as exc:
+            return self._fail(f"cannot plan from the object's pose: {exc}")
+        if self.planner is not None:
+            self.planner.close()
+        key = [self.seed, self.report["replans"], *(np.round(pose * 1e4).astype(np.int64) % 2**32)]
+        rng = np.random.default_rng(np.random.SeedSequence(key))
+        self.planner = TopSlidePlanner(problem, self.planner_name, rng)
+        t0 = time.perf_counter()
+        result = self.planner.solve(budget)
+        self.report["planning_time_s"] += time.perf_counter() - t0
+        self.report["plan_status"] = result.status.value
+        if not result.solved:
+            return self._fail(f"planner: {result.reason}")
+        self.report["planned"] = True
+        self.object_start = pose
+        self.result = result
+        gamma_s, gamma_g = planar_pose(
+            self.tip.forward(np.stack([result.start_config, result.goal_config]))
+        )
+        self.predicted = slid_object_pose(gamma_s, gamma_g, pose)
+        self.report["object_predicted_pose"] = self.predicted.tolist()
+        self._queue_press_and_slide(result.start_config, result.path, pose)
+
+    def _ik(self, chain: FastChain, t: np.ndarray, seed: np.ndarray) -> np.ndarray | None:
+        return solve_ik(chain, IKTarget(t[:3, 3], t[:3, :3]), self.rng, seed[None])
+
+    def _queue_press_and_slide(self, q_s: np.ndarray, path: np.ndarray, pose: np.ndarray) -> None:
+        p, planner = self.params, self.planner
+        assert planner is not None and self.q_cmd is not None
+        above = self.tip.forward(q_s)
+        above[2, 3] += p.pre_contact_height
+        q_pre = self._ik(self.tip, above, q_s)
+        if q_pre is None:
+            return self._fail("no IK solution above the press point")
+        high = above.copy()
+        high[2, 3] += 0.15
+        q_high = self._ik(self.tip, high, q_pre)
+        checker = planner.checker
+        checker.place_object(pose)
+        routes = [[self.q_cmd, q_pre]] + (
+            [[self.q_cmd, q_high, q_pre]] if q_high is not None else []
+        )
+        try:
+            route = next(
+                (
+                    r
+                    for r in routes
+                    if all(
+                        checker.segment_free(a, b, "full", 0.02)
+                        for a, b in zip(r[:-1], r[1:], strict=True)
+                    )
+                ),
+                routes[-1],
+            )
+        finally:
+            checker.place_object(None)
+        self._push(Segment("approach", np.array(route), p.approach_speed), self.tip)
+        press = Segment("press", np.array([q_pre, q_s]), 1.0, p.press_speed, hold_s=p.press_hold_s)
+        self._push(press, self.tip, track=True)
+        self._push(Segment("slide", path, 1.0, p.slide_speed), self.tip, track=True)
+
+    def _push(self, segment: Segment, chain: FastChain | None, track: bool = False) -> None:
+        for q in time_segment(segment, self.dt, chain):
+            self.queue.append(_Step(q, segment.hand, segment.name, track))
+
+    def _after_slide(self, obs: dict[str, np.ndarray]) -> None:
+        """Compare the real slid pose with Eq. 2; re-aim the grasp or replan."""
+        assert self.planner is not None and self.q_cmd is not None
+        assert self.obj is not None and self.table is not None
+        actual = self._object_pose(obs)
+        self.report["object_slid_pose"] = actual.tolist()
+        self.report["slide_error_m"] = float(np.linalg.norm(actual[:2] - self.predicted[:2]))
+        self.report["slide_error_rad"] = abs(wrap_angle(actual[2] - self.predicted[2]))
+        placed = transform_polygon(self.obj.polygon, *actual)
+        ov = overhang(placed, self.table.polygon)
+        ok, info = False, {"reason": "overhang below u_star or centroid off the table"}
+        if ov.graspable(self.params.grasp_u_star):
+            validator = self.planner.validator
+            ok, info = validator.check_placement(actual, self.q_cmd, self.params.grasp_u_star)
+        self.report["events"].append(
+            f"slid: overhang {ov.u:.3f} m, error {self.report['slide_error_m']:.3f} m "
+            f"{self.report['slide_error_rad']:.3f} rad, grasp {'ok' if ok else info.get('reason')}"
+        )
+        if ok:
+            return self._queue_grasp(np.asarray(info["transfer_path"]))
+        if self.report["replans"] >= self.params.max_replans:
+            return self._fail(f"not graspable after the slide ({info.get('reason')})")
+        self.report["replans"] += 1
+        up = self.tip.forward(self.q_cmd)
+        up[2, 3] += self.params.pre_contact_height
+        q_up = self._ik(self.tip, up, self.q_cmd)
+        if q_up is None:
+            return self._fail("no IK solution to lift the fingertip for a replan")
+        lift = Segment(
+            "lift_off_replan", np.array([self.q_cmd, q_up]), 1.0, self.params.press_speed
+        )
+        self._push(lift, self.tip)
+
+    def _queue_grasp(self, transfer: np.ndarray) -> None:
+        p = self.params
+        assert self.q_cmd is not None
+        q_grasp = transfer[-1]
+        self._push(
+            Segment("lift_off", np.array([self.q_cmd, transfer[1]]), 1.0, p.press_speed), self.tip
+        )
+        if len(transfer) > 3:
+            transfer_leg = Segment("transfer", transfer[1:-1], p.transfer_speed, hold_s=p.settle_s)
+            self._push(transfer_leg, None)
+        self._push(Segment("approach_grasp", transfer[-2:], 1.0, p.grasp_speed), self.hand)
+        self._push(Segment("close", transfer[-1:], hand=1.0, hold_s=p.close_s), None)
+        up = self.hand.forward(q_grasp)
+        up[2, 3] += p.lift
+        q_up = self._ik(self.hand, up, q_grasp)
+        if q_up is None:
+            return self._fail("no IK solution for lifting the grasped object")
+        lift = Segment("lift", np.array([q_grasp, q_up]), 1.0, p.lift_speed, hand=1.0, hold_s=1.0)
+        self._push(lift, self.hand)
+        if self.planner is not None:
+            self.planner.close()
+            self.planner = None
+
+    def close(self) -> None:
+        """Release the planner's collision world."""
+        if self.planner is not None:
+            self.planner.close()
+            self.planner = None

@@ -1,0 +1,137 @@
+"""The planners as policies with Stable-Baselines3's ``predict`` interface."""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Iterable
+from typing import Any
+
+import numpy as np
+
+from agents.expert import EXPERT_SLIDE_PARAMS, ExpertParams, SlideGraspExpert
+from agents.scene import SceneLibrary
+from slide_gym.geometry import ObjectShape, TableShape
+from slide_gym.planning.api import PLANNERS, SlideParams
+from slide_gym.planning.result import check_time_budget
+
+_RESET_JUMP = 0.3
+"""rad: an arm this far from the agent's own target must have been reset by the env."""
+
+
+class PlannerAgent:
+    """A top-slide planner as a closed-loop policy for ``SlideGym/TopSlideGrasp-v0``.
+
+    ``predict`` takes one observation or a batch (a dict of stacked arrays, as from a VecEnv)
+    and returns actions in the environment's action space. The agent plans from what the
+    observation says (the scene outlines, the object's pose), then presses, slides, re-aims the
+    grasp at the plate's measured pose (replanning if it is not graspable), grasps and lifts;
+    see :class:`agents.expert.SlideGraspExpert`. It never touches the simulator.
+
+    Each batch slot keeps its own episode controller. A slot starts a new episode when
+    ``episode_start`` says so (as ``evaluate_policy`` and SB3 loops pass it), when
+    :meth:`reset` is called, or when the observed arm is far from the agent's last target
+    (an environment reset that nobody reported).
+
+    Args:
+        planner: ``"regions"`` (the paper's), ``"cbirrt"`` or ``"cbirrt2"`` (the baselines).
+        time_budget: planning seconds per episode (first plan and replans together).
+        seed: planner seed; each episode also mixes in the observed start pose, so a batch slot
+            and a single call plan identically for the same observation.
+        objects, tables: shapes to recognise besides the catalog (for JSON scenes).
+        params: execution parameters; ``max_joint_step`` and ``control_hz``: the env's values.
+        **planner_params: :class:`~slide_gym.planning.SlideParams` overrides (e.g. ``dz``).
+    """
+
+    def __init__(
+        self,
+        planner: str = "regions",
+        time_budget: float = 10.0,
+        *,
+        seed: int = 0,
+        objects: Iterable[ObjectShape] = (),
+        tables: Iterable[TableShape] = (),
+        params: ExpertParams | None = None,
+        max_joint_step: float = 0.05,
+        control_hz: float = 20.0,
+        **planner_params: Any,
+    ):
+        if planner not in PLANNERS:
+            raise ValueError(f"planner must be one of {', '.join(PLANNERS)}, got {planner!r}")
+        check_time_budget(time_budget)
+        fields = {f.name for f in dataclasses.fields(SlideParams)}
+        unknown = set(planner_params) - fields
+        if unknown:
+            raise ValueError(
+                f"unknown planner parameters {sorted(unknown)}; "
+                f"allowed: {', '.join(sorted(fields))}"
+            )
+        self.planner, self.time_budget, self.seed = planner, float(time_budget), int(seed)
+        self.slide_params: SlideParams = dataclasses.replace(EXPERT_SLIDE_PARAMS, **planner_params)
+        self.params = params or ExpertParams()
+        self.library = SceneLibrary(objects, tables)
+        self.max_joint_step, self.control_dt = float(max_joint_step), 1.0 / float(control_hz)
+        self._slots: list[SlideGraspExpert | None] = []
+
+    def reset(self) -> None:
+        """Forget every slot's episode; the next observation starts a new one."""
+        for slot in self._slots:
+            if slot is not None:
+                slot.close()
+        self._slots = []
+
+    def expert(self, index: int = 0) -> SlideGraspExpert | None:
+        """The controller of batch slot ``index`` (its ``report`` says what happened)."""
+        return self._slots[index] if index < len(self._slots) else None
+
+    def predict(
+        self,
+        observation: dict[str, np.ndarray],
+        state: Any = None,
+        episode_start: np.ndarray | None = None,
+        deterministic: bool = True,
+    ) -> tuple[np.ndarray, Any]:
+        """Actions for one observation (8,) or a batch (n, 8); ``state`` is passed through."""
+        if not isinstance(observation, dict) or "arm_qpos" not in observation:
+            raise ValueError("observation must be a TopSlide Dict observation (with 'arm_qpos')")
+        batched = np.asarray(observation["arm_qpos"]).ndim == 2
+        n = len(observation["arm_qpos"]) if batched else 1
+        starts = (
+            np.zeros(n, bool) if episode_start is None else np.asarray(episode_start, bool)
+        ).reshape(-1)
+        if len(starts) != n:
+            raise ValueError(f"episode_start has {len(starts)} entries for {n} observations")
+        self._slots += [None] * (n - len(self._slots))
+        actions = []
+        for i in range(n):
+            obs = {
+                k: np.asarray(v)[i] if batched else np.asarray(v) for k, v in observation.items()
+            }
+            slot = self._slots[i]
+            if starts[i] or slot is None or self._was_reset(slot, obs):
+                if slot is not None:
+                    slot.close()
+                slot = self._slots[i] = self._new_expert()
+            actions.append(slot.act(obs))
+        return (np.stack(actions) if batched else actions[0]), state
+
+    def _new_expert(self) -> SlideGraspExpert:
+        return SlideGraspExpert(
+            self.planner,
+            self.time_budget,
+            self.slide_params,
+            self.params,
+            self.seed,
+            self.library,
+            self.control_dt,
+            self.max_joint_step,
+        )
+
+    @staticmethod
+    def _was_reset(slot: SlideGraspExpert, obs: dict[str, np.ndarray]) -> bool:
+        if slot.q_cmd is None:
+            return False
+        return bool(np.abs(np.asarray(obs["arm_qpos"]) - slot.q_cmd).max() > _RESET_JUMP)
+
+    def close(self) -> None:
+        """Release every slot's planner."""
+        self.reset()

@@ -1,0 +1,129 @@
+"""The planner agent: SB3 predict interface, honesty of the physics, determinism, episodes."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import slide_gym  # noqa: F401 - registers the environments
+from agents.episode import run_episode
+from agents.planner_agent import PlannerAgent
+from agents.scene import SceneLibrary
+from agents.trajectory import Segment, time_segment
+from slide_gym.geometry import get_object, get_table
+from slide_gym.planning.api import fingertip_chain
+
+GRASP_ENV = "SlideGym/TopSlideGrasp-v0"
+
+
+def test_time_segment_respects_speed_limits_and_ends_on_the_last_waypoint():
+    q = np.array([[0.0] * 7, [0.5] + [0.0] * 6, [0.5, 0.3] + [0.0] * 5])
+    targets = time_segment(Segment("s", q, joint_speed=1.0, hold_s=0.1), dt=0.05)
+    steps = np.abs(np.diff(np.vstack([q[:1], targets]), axis=0)).max(axis=1)
+    assert steps.max() <= 0.05 + 1e-9
+    assert np.allclose(targets[-1], q[-1]) and np.allclose(targets[-2], q[-1])
+    chain = fingertip_chain()
+    slow = time_segment(Segment("s", q, joint_speed=1.0, tip_speed=0.01), 0.05, chain)
+    tips = chain.forward(np.vstack([q[:1], slow]))[:, :3, 3]
+    assert np.linalg.norm(np.diff(tips, axis=0), axis=1).max() <= 0.01 * 0.05 * 1.05
+    with pytest.raises(ValueError, match="waypoints"):
+        time_segment(Segment("bad", np.zeros((2, 6))), 0.05)
+
+
+def test_scene_library_recognises_scaled_catalog_shapes_from_outlines():
+    lib = SceneLibrary()
+    obj = get_object("E", 1.3)
+    table = get_table("triangle")
+    found = lib.object_from(obj.descriptor(32).astype(np.float32))
+    assert found.name == "E" and found.area == pytest.approx(obj.area, rel=1e-4)
+    assert lib.table_from(table.descriptor(64).astype(np.float32), 0.0).name == "triangle"
+    with pytest.warns(UserWarning, match="no known shape"):
+        t = 2 * np.pi * np.arange(32) / 32
+        odd = lib.object_from(np.c_[0.04 * np.cos(t), 0.02 * np.sin(t)])
+    assert odd.name == "observed"
+
+
+def test_agent_rejects_bad_arguments():
+    with pytest.raises(ValueError, match="planner must be one of"):
+        PlannerAgent("rrt")
+    with pytest.raises(ValueError, match="time_budget"):
+        PlannerAgent("regions", time_budget=0.0)
+    with pytest.raises(ValueError, match="unknown planner parameters"):
+        PlannerAgent("regions", bogus=1)
+
+
+def _rollout(steps: int, seed: int) -> tuple[list[np.ndarray], list[dict]]:
+    env = gym.make(GRASP_ENV, object="E", table="square")
+    agent = PlannerAgent("regions", 5.0, seed=seed)
+    obs_list, actions = [], []
+    obs, _ = env.reset(seed=seed)
+    for k in range(steps):
+        obs_list.append(obs)
+        action, _ = agent.predict(obs, episode_start=np.array([k == 0]))
+        actions.append(action)
+        obs, *_ = env.step(action)
+    agent.close()
+    env.close()
+    return actions, obs_list
+
+
+def test_batched_predict_matches_single_predict():
+    actions, observations = _rollout(40, seed=3)
+    batch_agent = PlannerAgent("regions", 5.0, seed=3)
+    for k, obs in enumerate(observations):
+        batch = {key: np.stack([v, v]) for key, v in obs.items()}
+        out, _ = batch_agent.predict(batch, episode_start=np.array([k == 0, k == 0]))
+        assert out.shape == (2, 8) and out.dtype == np.float32
+        np.testing.assert_array_equal(out[0], actions[k])
+        np.testing.assert_array_equal(out[1], actions[k])
+    batch_agent.close()
+
+
+def test_evaluate_policy_runs_the_agent_on_a_vectorised_env():
+    evaluation = pytest.importorskip("stable_baselines3.common.evaluation")
+    env = gym.make(GRASP_ENV, object="square", table="square", max_episode_steps=30)
+    agent = PlannerAgent("cbirrt2", 3.0, seed=0)
+    rewards, lengths = evaluation.evaluate_policy(
+        agent, env, n_eval_episodes=2, return_episode_rewards=True
+    )
+    assert lengths == [30, 30] and len(rewards) == 2
+    env.close()
+
+
+@pytest.fixture(scope="module")
+def e_episode():
+    return run_episode("E", "square", seed=0)
+
+
+def test_expert_lifts_the_object_end_to_end(e_episode):
+    r = e_episode
+    assert r["success"] and r["planned"] and r["phase_reached"] in ("lift", "done")
+    assert r["lift_height_m"] >= 0.05
+    assert r["slide_error_m"] is not None and r["slide_error_m"] < 0.05
+
+
+def test_expert_episode_is_deterministic(e_episode):
+    again = run_episode("E", "square", seed=0)
+    for key in ("success", "steps", "object_final_pose", "slide_error_m", "replans"):
+        assert again[key] == e_episode[key], key
+
+
+def test_no_constraint_ties_the_object_and_success_comes_from_the_env():
+    env = gym.make(GRASP_ENV, object="E", table="square")
+    agent = PlannerAgent("regions", 5.0, seed=1)
+    obs, info = env.reset(seed=1)
+    sim = env.unwrapped.sim
+    for k in range(900):
+        action, _ = agent.predict(obs, episode_start=np.array([k == 0]))
+        obs, _, terminated, truncated, info = env.step(action)
+        assert sim.count_constraints() == 0
+        if terminated or truncated:
+            break
+    state = env.unwrapped._state
+    assert info["is_success"] == (
+        state.lift_m >= 0.05 and state.touching_finger_a and state.touching_finger_b
+    )
+    assert info["is_success"]
+    agent.close()
+    env.close()

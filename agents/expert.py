@@ -31,6 +31,7 @@ from agents.scene import SceneLibrary
 from agents.trajectory import Segment, time_segment
 from slide_gym.geometry import ObjectShape, TableShape, overhang, transform_polygon
 from slide_gym.planning.api import (
+    GraspParams,
     IKTarget,
     SlideParams,
     TopSlidePlanner,
@@ -44,11 +45,19 @@ from slide_gym.planning.api import (
 from slide_gym.planning.kin import FastChain
 from slide_gym.robot.model import ARM_LOWER, ARM_UPPER
 
-EXPERT_SLIDE_PARAMS = SlideParams(dz=(0.012, 0.025), press_radius=0.015, u_star=0.045)
+EXPERT_SLIDE_PARAMS = SlideParams(
+    dz=(0.012, 0.025),
+    press_radius=0.015,
+    u_star=0.04,
+    centroid_margin=0.015,
+    grasp=GraspParams(retreat=0.06),
+)
 """Planner settings the expert uses by default: a contact depth band deep enough that the
 fingertip keeps dragging the plate (shallow presses slip), and press points within 1.5 cm of
 the plate's centroid (the plate then hardly spins about the fingertip), and a planned overhang
-of 4.5 cm, 1.5 cm more than the task's u*, as a margin for the slide's error."""
+of 4.5 cm, 1.5 cm more than the task's u*, with the centroid 2.5 cm inside the edge, as
+margins for the slide's error; the grasp is
+approached from 6 cm out (the fingers clear the plate's corners while the arm settles)."""
 
 
 @dataclass(frozen=True)
@@ -61,6 +70,9 @@ class ExpertParams:
     press_hold_s: float = 0.3
     slide_speed: float = 0.03  # m/s fingertip speed along the slide
     transfer_speed: float = 0.6  # rad/s
+    transfer_tip_speed: float = 0.1  # m/s of the grasp frame during the transfer
+    lift_off_height: float = 0.06  # m the fingertip rises off the plate after the slide
+    grasp_budget: float = 1.0  # s to re-aim the grasp at the measured pose
     settle_s: float = 0.5  # s at the stand-off pose: the arm settles before the approach
     grasp_speed: float = 0.04  # m/s on the final approach to the grasp
     close_s: float = 0.8  # hand closing time before lifting
@@ -191,9 +203,9 @@ class SlideGraspExpert:
         if self.phase == "plan":
             self._plan(obs)
         elif self.phase == "slide":
-            self._after_slide(obs)
-        elif self.phase == "lift_off_replan":
-            self._plan(obs)
+            self._lift_off()
+        elif self.phase == "lift_off":
+            self._after_lift_off(obs)
         elif self.phase == "lift":
             self.phase = "done"
         else:
@@ -281,13 +293,26 @@ class SlideGraspExpert:
         press = Segment("press", np.array([q_pre, q_s]), 1.0, p.press_speed, hold_s=p.press_hold_s)
         self._push(press, self.tip, track=True)
         self._push(Segment("slide", path, 1.0, p.slide_speed), self.tip, track=True)
+        self.q_slide_end = np.asarray(path[-1], dtype=float)
 
     def _push(self, segment: Segment, chain: FastChain | None, track: bool = False) -> None:
         for q in time_segment(segment, self.dt, chain):
             self.queue.append(_Step(q, segment.hand, segment.name, track))
 
-    def _after_slide(self, obs: dict[str, np.ndarray]) -> None:
-        """Compare the real slid pose with Eq. 2; re-aim the grasp or replan."""
+    def _lift_off(self) -> None:
+        """Raise the fingertip off the plate, still holding its xy (the finger unloads)."""
+        assert self.q_cmd is not None
+        q_end = self.q_slide_end  # the nominal (uncorrected) end of the slide
+        up = self.tip.forward(q_end)
+        up[2, 3] += self.params.lift_off_height
+        q_up = self._ik(self.tip, up, q_end)
+        if q_up is None:
+            return self._fail("no IK solution to lift the fingertip off the plate")
+        lift = Segment("lift_off", np.array([q_end, q_up]), 1.0, self.params.press_speed)
+        self._push(lift, self.tip, track=True)
+
+    def _after_lift_off(self, obs: dict[str, np.ndarray]) -> None:
+        """Compare the real slid pose with Eq. 2; re-aim the grasp at it, or replan."""
         assert self.planner is not None and self.q_cmd is not None
         assert self.obj is not None and self.table is not None
         actual = self._object_pose(obs)
@@ -299,7 +324,12 @@ class SlideGraspExpert:
         ok, info = False, {"reason": "overhang below u_star or centroid off the table"}
         if ov.graspable(self.params.grasp_u_star):
             validator = self.planner.validator
-            ok, info = validator.check_placement(actual, self.q_cmd, self.params.grasp_u_star)
+            t0 = time.perf_counter()
+            validator.deadline = t0 + self.params.grasp_budget
+            ok, info = validator.check_placement(
+                actual, self.q_cmd, self.params.grasp_u_star, lifted=True, centroid_margin=0.0
+            )
+            self.report["planning_time_s"] += time.perf_counter() - t0
         self.report["events"].append(
             f"slid: overhang {ov.u:.3f} m, error {self.report['slide_error_m']:.3f} m "
             f"{self.report['slide_error_rad']:.3f} rad, grasp {'ok' if ok else info.get('reason')}"
@@ -309,26 +339,17 @@ class SlideGraspExpert:
         if self.report["replans"] >= self.params.max_replans:
             return self._fail(f"not graspable after the slide ({info.get('reason')})")
         self.report["replans"] += 1
-        up = self.tip.forward(self.q_cmd)
-        up[2, 3] += self.params.pre_contact_height
-        q_up = self._ik(self.tip, up, self.q_cmd)
-        if q_up is None:
-            return self._fail("no IK solution to lift the fingertip for a replan")
-        lift = Segment(
-            "lift_off_replan", np.array([self.q_cmd, q_up]), 1.0, self.params.press_speed
-        )
-        self._push(lift, self.tip)
+        self._plan(obs)
 
     def _queue_grasp(self, transfer: np.ndarray) -> None:
         p = self.params
         assert self.q_cmd is not None
         q_grasp = transfer[-1]
-        self._push(
-            Segment("lift_off", np.array([self.q_cmd, transfer[1]]), 1.0, p.press_speed), self.tip
+        route = np.vstack([self.q_cmd, transfer[1:-1]])
+        transfer_leg = Segment(
+            "transfer", route, p.transfer_speed, p.transfer_tip_speed, hold_s=p.settle_s
         )
-        if len(transfer) > 3:
-            transfer_leg = Segment("transfer", transfer[1:-1], p.transfer_speed, hold_s=p.settle_s)
-            self._push(transfer_leg, None)
+        self._push(transfer_leg, self.hand)
         self._push(Segment("approach_grasp", transfer[-2:], 1.0, p.grasp_speed), self.hand)
         self._push(Segment("close", transfer[-1:], hand=1.0, hold_s=p.close_s), None)
         up = self.hand.forward(q_grasp)

@@ -15,11 +15,11 @@ _ENTRY_POINT = "slide_gym.envs.top_slide:TopSlideEnv"
 _SPECS = {
     "SlideGym/TopSlide-v0": ({"goal": "slide", "reward_type": "sparse"}, 300),
     "SlideGym/TopSlideDense-v0": ({"goal": "slide", "reward_type": "dense"}, 300),
-    "SlideGym/TopSlideGrasp-v0": ({"goal": "grasp", "reward_type": "sparse"}, 900),
-    "SlideGym/TopSlideGraspDense-v0": ({"goal": "grasp", "reward_type": "dense"}, 900),
+    "SlideGym/TopSlideGrasp-v0": ({"goal": "grasp", "reward_type": "sparse"}, 1200),
+    "SlideGym/TopSlideGraspDense-v0": ({"goal": "grasp", "reward_type": "dense"}, 1200),
 }
 ENV_IDS: tuple[str, ...] = tuple(_SPECS)
-"""The registered environment ids (time limits: 15 s to slide, 45 s to slide and grasp)."""
+"""The registered environment ids (time limits: 15 s to slide, 60 s to slide and grasp)."""
 
 for _env_id, (_kwargs, _steps) in _SPECS.items():
     if _env_id not in registry:

@@ -4,9 +4,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
+
+PLANNERS = ("regions", "cbirrt", "cbirrt2")
+PLAN_BENCH_OBJECTS = "square,circle,triangle,crescent,irregular"
 
 
 def _cmd_shapes(args: argparse.Namespace) -> int:
@@ -103,7 +108,62 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     return 0
 
 
+def _run_episode() -> Callable[..., dict[str, Any]]:
+    """``agents.episode.run_episode``, imported on use."""
+    from agents.episode import run_episode
+
+    return run_episode
+
+
+def _opt(value: Any, spec: str, suffix: str = "") -> str:
+    return "n/a" if value is None else f"{value:{spec}}{suffix}"
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    s = _run_episode()(
+        args.object,
+        args.table,
+        scale=args.scale,
+        seed=args.seed,
+        planner=args.planner,
+        time_budget=args.time_budget,
+        video=args.video,
+    )
+    if args.json:
+        print(json.dumps(s))
+        return 0
+    verdict = "lifted" if s["success"] else "failed"
+    print(
+        f"{verdict}: {s['object']} on {s['table']}, seed {s['seed']}, {s['planner']} planner, "
+        f"phase reached {s['phase_reached']}"
+    )
+    print(
+        f"  planned {'yes' if s['planned'] else 'no'} ({s['replans']} replans, "
+        f"{_opt(s['planning_time_s'], '.2f', ' s')} planning); {s['steps']} steps, "
+        f"{_opt(s['sim_time_s'], '.1f', ' s')} simulated in {_opt(s['wall_time_s'], '.1f', ' s')}"
+    )
+    rad, cm = s["slide_error_rad"], s["slide_error_m"]
+    pose = s["object_final_pose"]
+    print(
+        f"  slide error {_opt(None if cm is None else 100.0 * cm, '.1f', ' cm')} / "
+        f"{_opt(None if rad is None else math.degrees(rad), '.1f', ' deg')}, lift "
+        f"{_opt(s['lift_height_m'], '.3f', ' m')}, final pose "
+        + ("n/a" if pose is None else "(" + ", ".join(f"{v:.3f}" for v in pose) + ")")
+    )
+    if s["failure"]:
+        print(f"  failure: {s['failure']}")
+    if args.video is not None:
+        print(f"  wrote {args.video}")
+    return 0
+
+
+def _names(text: str | None, default: Sequence[str]) -> list[str]:
+    return list(default) if text is None else [n for n in text.split(",") if n]
+
+
 def _cmd_bench(args: argparse.Namespace) -> int:
+    if args.what == "execute":
+        return _bench_execute(args)
     from slide_gym.bench import bench_env, bench_plan, write_result
 
     if args.what == "env":
@@ -113,10 +173,10 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         write_result(result, args.out)
         return 0
     summary = bench_plan(
-        objects=args.objects.split(","),
+        objects=_names(args.objects, PLAN_BENCH_OBJECTS.split(",")),
         table=args.table,
         planners=args.planners.split(","),
-        trials=args.trials,
+        trials=20 if args.trials is None else args.trials,
         time_budget=args.time_budget,
         dz=_floats(args.dz, 2, "--dz"),
         out=args.out or Path("results/bench_plan.jsonl"),
@@ -125,6 +185,24 @@ def _cmd_bench(args: argparse.Namespace) -> int:
         plot=args.plot,
     )
     print(json.dumps(summary, indent=2))
+    return 0
+
+
+def _bench_execute(args: argparse.Namespace) -> int:
+    from slide_gym.bench_execute import bench_execute, execute_markdown_table
+    from slide_gym.geometry import OBJECT_NAMES, TABLE_NAMES
+
+    summary = bench_execute(
+        objects=_names(args.objects, OBJECT_NAMES),
+        tables=_names(args.tables, TABLE_NAMES),
+        trials=10 if args.trials is None else args.trials,
+        out=args.out or Path("results/bench_execute.jsonl"),
+        planner=args.planner,
+        time_budget=args.time_budget,
+        workers=args.workers,
+        seed=args.seed,
+    )
+    print(execute_markdown_table(summary) if args.markdown else json.dumps(summary, indent=2))
     return 0
 
 
@@ -162,7 +240,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scale", type=float, default=1.0)
     p.add_argument("--object-pose", default=None, help="X,Y,YAW; default: random from --seed")
     p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--planner", choices=["regions", "cbirrt", "cbirrt2"], default="regions")
+    p.add_argument("--planner", choices=PLANNERS, default="regions")
     p.add_argument("--time-budget", type=float, default=10.0, help="seconds")
     p.add_argument("--dz", default=None, help="LO,HI contact depth relaxation (m)")
     p.add_argument("--dbeta", type=float, default=None, help="pitch relaxation (rad)")
@@ -170,22 +248,49 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=_cmd_plan)
 
+    p = sub.add_parser(
+        "run", help="run the planner expert for one episode (slide, grasp, lift), print a summary"
+    )
+    scene_args(p)
+    p.add_argument("--scale", type=float, default=1.0)
+    p.add_argument("--planner", choices=PLANNERS, default="regions")
+    p.add_argument("--time-budget", type=float, default=10.0, help="planning seconds per query")
+    p.add_argument("--video", type=Path, default=None, help="write an MP4 or GIF here")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=_cmd_run)
+
     p = sub.add_parser("bench", help="benchmarks (results printed as JSON)")
     p.add_argument(
-        "what", choices=["env", "plan"], help="env: environment throughput; plan: planners"
+        "what",
+        choices=["env", "plan", "execute"],
+        help="env: environment throughput; plan: planners; execute: expert episodes",
     )
     p.add_argument("--object", default="square", help="env: the object")
     p.add_argument(
         "--objects",
-        default="square,circle,triangle,crescent,irregular",
-        help="plan: comma-separated objects",
+        default=None,
+        help=f"plan, execute: comma-separated objects (plan: {PLAN_BENCH_OBJECTS}; execute: all)",
     )
-    p.add_argument("--table", default="square")
+    p.add_argument("--table", default="square", help="env, plan: the table")
+    p.add_argument("--tables", default=None, help="execute: comma-separated tables (all)")
     p.add_argument("--planners", default="regions,cbirrt2,cbirrt", help="plan: which planners")
-    p.add_argument("--trials", type=int, default=20, help="plan: start poses per object")
-    p.add_argument("--time-budget", type=float, default=10.0, help="plan: seconds per query")
+    p.add_argument("--planner", choices=PLANNERS, default="regions", help="execute: the planner")
+    p.add_argument(
+        "--trials",
+        type=int,
+        default=None,
+        help="plan: start poses per object (20); execute: seeds per object and table (10)",
+    )
+    p.add_argument(
+        "--time-budget", type=float, default=10.0, help="plan, execute: seconds per query"
+    )
     p.add_argument("--dz", default="0.005,0.025", help="plan: LO,HI (the paper's dZ* = 2 cm)")
-    p.add_argument("--workers", type=int, default=None, help="plan: processes (default: cores)")
+    p.add_argument(
+        "--workers", type=int, default=None, help="plan, execute: processes (default: cores)"
+    )
+    p.add_argument(
+        "--markdown", action="store_true", help="execute: print markdown tables, not JSON"
+    )
     p.add_argument("--plot", type=Path, default=None, help="plan: success-vs-time figure")
     p.add_argument("--steps", type=int, default=600, help="env: steps")
     p.add_argument("--resets", type=int, default=20, help="env: timed resets")
@@ -194,7 +299,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--out",
         type=Path,
         default=None,
-        help="env: append the result here; plan: results JSONL (resumable)",
+        help="env: append the result here; plan, execute: results JSONL (resumable; default "
+        "results/bench_<what>.jsonl)",
     )
     p.set_defaults(func=_cmd_bench)
     return parser

@@ -114,7 +114,7 @@ def test_no_constraint_ties_the_object_and_success_comes_from_the_env():
     agent = PlannerAgent("regions", 5.0, seed=1)
     obs, info = env.reset(seed=1)
     sim = env.unwrapped.sim
-    for k in range(900):
+    for k in range(1200):
         action, _ = agent.predict(obs, episode_start=np.array([k == 0]))
         obs, _, terminated, truncated, info = env.step(action)
         assert sim.count_constraints() == 0

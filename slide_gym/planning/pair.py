@@ -36,6 +36,7 @@ from slide_gym.planning.kin import FastChain
 from slide_gym.planning.result import SearchParams
 from slide_gym.planning.se2 import slid_object_pose
 from slide_gym.planning.search import ForestConnectPlanner, SearchFunctions
+from slide_gym.planning.smoothing import shortcut_path
 from slide_gym.robot.model import ARM_LOWER, ARM_UPPER
 
 
@@ -48,6 +49,7 @@ class GraspParams:
     lift: float = 0.08  # fingertip lift off the plate after sliding
     retreat: float = 0.04  # pre-grasp stand-off outside the edge, along the approach
     rise: float = 0.08  # the pre-grasp is approached from this high above the grasp
+    clear_height: float = 0.2  # height over the table top the hand rises to before turning
     resolution: float = 0.02  # largest joint change between collision checks on a leg
     transfer_budget: float = 0.25  # time for the fallback planner per pair
 
@@ -105,8 +107,10 @@ class PairValidator:
         rng: np.random.Generator,
         grasp: GraspParams | None = None,
         ik_params: IKParams | None = None,
+        centroid_margin: float = 0.0,
     ):
         self.obj, self.table = obj, table
+        self.centroid_margin = float(centroid_margin)
         self.object_start = np.asarray(object_start, dtype=float)
         self.u_star = float(u_star)
         self.tip_chain = tip_chain
@@ -129,21 +133,32 @@ class PairValidator:
         return self.check_placement(self.object_goal(q_s, q_g), q_g)
 
     def check_placement(
-        self, goal: np.ndarray, q_g: np.ndarray, u_star: float | None = None
+        self,
+        goal: np.ndarray,
+        q_g: np.ndarray,
+        u_star: float | None = None,
+        lifted: bool = False,
+        centroid_margin: float | None = None,
     ) -> tuple[bool, dict[str, Any]]:
         """Is the plate graspable at ``goal`` (x, y, yaw), and reachable from ``q_g``?
 
         The second half of the pair check; an executor also calls it with the plate's measured
-        pose after a real slide, to re-aim the grasp (``u_star`` overrides the validator's).
+        pose after a real slide, to re-aim the grasp (``u_star`` overrides the validator's;
+        ``lifted`` says the fingertip is already off the plate at ``q_g``, so no lift leg;
+        ``centroid_margin`` overrides how far inside the table edge the centroid must lie).
         """
         u_star = self.u_star if u_star is None else float(u_star)
+        margin = self.centroid_margin if centroid_margin is None else float(centroid_margin)
         goal = np.asarray(goal, dtype=float)
         placed = transform_polygon(self.obj.polygon, *goal)
         ov = overhang(placed, self.table.polygon)
         info: dict[str, Any] = {"object_goal_pose": goal, "overhang_m": ov.u}
-        if ov.u < u_star or not ov.centroid_inside or ov.edge is None:
+        centroid_ok = ov.centroid_inside and (
+            margin <= 0.0 or self.table.polygon.exterior.distance(placed.centroid) >= margin
+        )
+        if ov.u < u_star or not centroid_ok or ov.edge is None:
             self.counts["overhang"] += 1
-            why = "centroid off the table" if not ov.centroid_inside else "overhang below u_star"
+            why = "centroid off the table" if not centroid_ok else "overhang below u_star"
             return False, {**info, "reason": why}
         info["edge"] = ov.edge
         z_mid = self.table.height + 0.5 * self.obj.thickness
@@ -165,7 +180,7 @@ class PairValidator:
                 q_grasp = self._ik(pos, rot, q_g)
                 if q_grasp is None or self.checker.collides(q_grasp, "full"):
                     continue
-                path = self._transfer(q_g, q_grasp, pos, rot)
+                path = self._transfer(q_g, q_grasp, pos, rot, lifted)
                 if path is not None:
                     self.counts["valid"] += 1
                     return True, {**info, "grasp_config": q_grasp, "transfer_path": path}
@@ -181,14 +196,19 @@ class PairValidator:
         target = IKTarget(pos, rot)
         return solve_ik(chain, target, self.rng, seed[None], self.ik_params, self.deadline)
 
-    def _transfer(self, q_g, q_grasp, pos, rot) -> np.ndarray | None:
+    def _transfer(self, q_g, q_grasp, pos, rot, from_lifted=False) -> np.ndarray | None:
         """phi_g -> lifted -> high pre-grasp -> pre-grasp -> grasp (or lifted -> grasp, or a
-        fallback plan)."""
+        fallback plan); ``from_lifted``: q_g is already off the plate, lifted = q_g."""
         p = self.grasp
-        tip = self.tip_chain.forward(q_g)
-        lifted = self._ik(tip[:3, 3] + [0.0, 0.0, p.lift], tip[:3, :3], q_g, self.tip_chain)
-        if lifted is None or not self.checker.segment_free(q_g, lifted, "sliding", p.resolution):
-            return None
+        if from_lifted:
+            lifted = q_g
+        else:
+            tip = self.tip_chain.forward(q_g)
+            lifted = self._ik(tip[:3, 3] + [0.0, 0.0, p.lift], tip[:3, :3], q_g, self.tip_chain)
+            if lifted is None:
+                return None
+            if not self.checker.segment_free(q_g, lifted, "sliding", p.resolution):
+                return None
         if time.perf_counter() >= self.deadline:
             return None
         if self.checker.collides(lifted, "full"):
@@ -197,13 +217,19 @@ class PairValidator:
         pre = self._ik(back, rot, q_grasp)
         high = self._ik(back + [0.0, 0.0, p.rise], rot, q_grasp) if pre is not None else None
         routes = [[lifted, high, pre, q_grasp]] if high is not None else []
+        if high is not None:  # the hand first rises clear of the table, then turns around
+            tip = self.tip_chain.forward(lifted)
+            clear_z = max(tip[2, 3], self.table.height + p.clear_height)
+            up = self._ik(np.r_[tip[:2, 3], clear_z], tip[:3, :3], lifted, self.tip_chain)
+            if up is not None:
+                routes.append([lifted, up, high, pre, q_grasp])
         routes.append([lifted, q_grasp])  # grasps at the edge of the workspace: no stand-off
         for route in routes:
             if time.perf_counter() >= self.deadline:
                 return None
             legs = zip(route[:-1], route[1:], strict=True)
             if all(self.checker.segment_free(a, b, "full", p.resolution) for a, b in legs):
-                return np.array([q_g, *route])
+                return np.array(route if from_lifted else [q_g, *route])
         return self._fallback(q_g, lifted, q_grasp)
 
     def _fallback(self, q_g, lifted, q_grasp) -> np.ndarray | None:
@@ -226,4 +252,5 @@ class PairValidator:
         result = planner.solve(budget)
         if not result.solved:
             return None
-        return np.vstack([q_g[None], result.path])
+        path = shortcut_path(result.path, fns, params, rng, 30, self.deadline)
+        return np.vstack([q_g[None], path])

@@ -36,6 +36,7 @@ class SlideParams:
     goal_band_width: float = 0.05  # m, width of the band P_g inside the table outline
     goal_band_reachable: bool = True  # keep only edge stretches with a reachable side grasp
     path_resolution: float = 0.01  # m, largest fingertip move between returned path states
+    centroid_margin: float = 0.0  # m the placed plate's centroid must lie inside the table edge
     press_radius: float | None = None  # m: press only near the centroid (None: anywhere, paper)
     shortcut_attempts: int = 40  # constrained shortcuts tried on the found slide (0: none)
     distance_weights: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0, 0.6, 0.6, 0.3)
@@ -47,6 +48,7 @@ class SlideParams:
             _finite(getattr(self, name), name, positive=name != "dbeta")
         for name in ("goal_band_width", "path_resolution"):
             _finite(getattr(self, name), name, positive=True)
+        _finite(self.centroid_margin, "centroid_margin")
         try:
             lo, hi = (float(v) for v in self.dz)
         except (TypeError, ValueError):

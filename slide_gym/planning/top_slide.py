@@ -164,6 +164,7 @@ class TopSlidePlanner(Planner):
             self.rng,
             p.grasp,
             p.ik,
+            p.centroid_margin,
         )
         self.search_params = SearchParams(
             step_size=p.step, n_star=p.n_star, distance_weights=p.distance_weights

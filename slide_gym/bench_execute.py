@@ -1,0 +1,190 @@
+"""``slide-gym bench execute``: the expert agent's full episodes (slide, grasp, lift) on every
+object and table, run in parallel and resumable, summarized as JSON or markdown tables."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+PLANNERS = ("regions", "cbirrt", "cbirrt2")
+
+
+def _run_episode() -> Callable[..., dict[str, Any]]:
+    """``agents.episode.run_episode``, imported on use."""
+    from agents.episode import run_episode
+
+    return run_episode
+
+
+def execute_case(case: dict[str, Any]) -> dict[str, Any]:
+    """One expert episode of the execute benchmark (runs in a worker process).
+
+    A scene the episode rejects (``ValueError``) becomes a failed row carrying the message.
+    """
+    try:
+        return dict(
+            _run_episode()(
+                case["object"],
+                case["table"],
+                seed=case["seed"],
+                planner=case["planner"],
+                time_budget=case["time_budget"],
+            )
+        )
+    except ValueError as err:
+        return {
+            "object": case["object"],
+            "table": case["table"],
+            "seed": case["seed"],
+            "planner": case["planner"],
+            "success": False,
+            "planned": False,
+            "replans": 0,
+            "planning_time_s": None,
+            "steps": 0,
+            "sim_time_s": 0.0,
+            "wall_time_s": None,
+            "object_final_pose": None,
+            "lift_height_m": None,
+            "slide_error_m": None,
+            "slide_error_rad": None,
+            "phase_reached": "rejected",
+            "failure": str(err),
+        }
+
+
+def bench_execute(
+    objects: Sequence[str],
+    tables: Sequence[str],
+    trials: int,
+    out: Path,
+    planner: str = "regions",
+    time_budget: float = 10.0,
+    workers: int | None = None,
+    seed: int = 0,
+) -> dict[str, Any]:
+    """Run ``trials`` seeded episodes per object and table (resumable: results go to ``out``)."""
+    from slide_gym.geometry import get_object, get_table
+    from slide_gym.jobs import case_key, run_cases
+    from slide_gym.planning.result import check_time_budget
+
+    time_budget = check_time_budget(time_budget)
+    if trials < 1:
+        raise ValueError(f"trials must be >= 1, got {trials}")
+    if planner not in PLANNERS:
+        raise ValueError(f"planner must be one of {', '.join(PLANNERS)}, got {planner!r}")
+    if not objects or not tables:
+        raise ValueError("need at least one object and one table")
+    for name in objects:
+        get_object(name)
+    for name in tables:
+        get_table(name)
+    cases = [
+        {"object": o, "table": t, "seed": seed + i, "planner": planner, "time_budget": time_budget}
+        for i in range(trials)
+        for o in objects
+        for t in tables
+    ]
+    keys = {case_key(c) for c in cases}
+    rows = [
+        r
+        for r in run_cases(execute_case, cases, out, workers, desc="execute")
+        if case_key(r["case"]) in keys
+    ]
+    return summarize_execute(rows)
+
+
+def _median(values: Sequence[float]) -> float | None:
+    return float(np.median(values)) if values else None
+
+
+def _present(rows: Sequence[dict[str, Any]], key: str) -> list[float]:
+    return [float(r[key]) for r in rows if r.get(key) is not None]
+
+
+def _rate(rows: Sequence[dict[str, Any]], key: str) -> float | None:
+    return float(np.mean([bool(r.get(key)) for r in rows])) if rows else None
+
+
+def _scaled(value: float | None, factor: float) -> float | None:
+    return None if value is None else value * factor
+
+
+def _group(rows: Sequence[dict[str, Any]], key: str, order: Sequence[str]) -> dict[str, Any]:
+    """Per value of ``key`` (catalog order first): n, success rate, median errors and wall."""
+    rank = {name: i for i, name in enumerate(order)}
+    names = sorted({str(r[key]) for r in rows}, key=lambda n: (rank.get(n, len(rank)), n))
+    groups = {}
+    for name in names:
+        mine = [r for r in rows if str(r[key]) == name]
+        groups[name] = {
+            "n": len(mine),
+            "success_rate": _rate(mine, "success"),
+            "slide_error_cm_median": _scaled(_median(_present(mine, "slide_error_m")), 100.0),
+            "slide_error_deg_median": _scaled(
+                _median(_present(mine, "slide_error_rad")), 180.0 / math.pi
+            ),
+            "wall_time_s_median": _median(_present(mine, "wall_time_s")),
+        }
+    return groups
+
+
+def summarize_execute(results: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """Lift (success) and planned rates, wall times, slide errors, per object and per table.
+
+    Medians skip ``None`` (no slide happened, or the scene was rejected before an episode).
+    """
+    from slide_gym.geometry import OBJECT_NAMES, TABLE_NAMES
+
+    walls = _present(results, "wall_time_s")
+    error_rad = _median(_present(results, "slide_error_rad"))
+    return {
+        "benchmark": "execute",
+        "n": len(results),
+        "planners": sorted({str(r["planner"]) for r in results if r.get("planner")}),
+        "success_rate": _rate(results, "success"),
+        "planned_rate": _rate(results, "planned"),
+        "wall_time_s_median": _median(walls),
+        "wall_time_s_p90": float(np.percentile(walls, 90)) if walls else None,
+        "slide_error_m_median": _median(_present(results, "slide_error_m")),
+        "slide_error_rad_median": error_rad,
+        "slide_error_deg_median": _scaled(error_rad, 180.0 / math.pi),
+        "by_object": _group(results, "object", OBJECT_NAMES),
+        "by_table": _group(results, "table", TABLE_NAMES),
+    }
+
+
+def _fmt(value: float | None, spec: str, suffix: str = "") -> str:
+    return "-" if value is None else f"{value:{spec}}{suffix}"
+
+
+def execute_markdown_table(summary: dict[str, Any]) -> str:
+    """An overall line and two markdown tables (per object, per table) of a summary."""
+    lines = [
+        f"**Overall** ({', '.join(summary['planners']) or 'no'} planner): {summary['n']} "
+        f"episodes, lifted {_fmt(_scaled(summary['success_rate'], 100.0), '.0f', '%')}, "
+        f"planned {_fmt(_scaled(summary['planned_rate'], 100.0), '.0f', '%')}, "
+        f"wall median {_fmt(summary['wall_time_s_median'], '.1f', ' s')} "
+        f"(p90 {_fmt(summary['wall_time_s_p90'], '.1f', ' s')}), slide error median "
+        f"{_fmt(_scaled(summary['slide_error_m_median'], 100.0), '.1f', ' cm')} / "
+        f"{_fmt(summary['slide_error_deg_median'], '.1f', ' deg')}",
+    ]
+    for kind, key in (("object", "by_object"), ("table", "by_table")):
+        lines += [
+            "",
+            f"| {kind} | n | lifted | slide error (cm) | slide error (deg) | wall (s) |",
+            "|---|---:|---:|---:|---:|---:|",
+        ]
+        for name, row in summary[key].items():
+            lines.append(
+                f"| {name} | {row['n']} "
+                f"| {_fmt(_scaled(row['success_rate'], 100.0), '.0f', '%')} "
+                f"| {_fmt(row['slide_error_cm_median'], '.1f')} "
+                f"| {_fmt(row['slide_error_deg_median'], '.1f')} "
+                f"| {_fmt(row['wall_time_s_median'], '.1f')} |"
+            )
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,227 @@
+"""``slide-gym run`` and ``slide-gym bench execute`` with a fake episode (no physics)."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from slide_gym import bench_execute, cli
+from slide_gym.bench_execute import execute_case, execute_markdown_table, summarize_execute
+from slide_gym.cli import main
+from slide_gym.geometry import OBJECT_NAMES, TABLE_NAMES
+
+CONTRACT_KEYS = {
+    "success",
+    "planned",
+    "replans",
+    "planning_time_s",
+    "steps",
+    "sim_time_s",
+    "wall_time_s",
+    "object_final_pose",
+    "lift_height_m",
+    "slide_error_m",
+    "slide_error_rad",
+    "object",
+    "table",
+    "seed",
+    "planner",
+    "phase_reached",
+    "failure",
+}
+
+
+class FakeEpisode:
+    """Stands in for ``agents.episode.run_episode``; records its calls."""
+
+    def __init__(self, error: str | None = None):
+        self.error = error
+        self.calls: list[dict[str, Any]] = []
+
+    def __call__(self, object: Any, table: Any, **kwargs: Any) -> dict[str, Any]:  # noqa: A002
+        self.calls.append({"object": object, "table": table, **kwargs})
+        if self.error is not None:
+            raise ValueError(self.error)
+        return {
+            "object": object,
+            "table": table,
+            "seed": kwargs.get("seed", 0),
+            "planner": kwargs.get("planner", "regions"),
+            "success": True,
+            "planned": True,
+            "replans": 1,
+            "planning_time_s": 0.8,
+            "steps": 640,
+            "sim_time_s": 32.0,
+            "wall_time_s": 20.0,
+            "object_final_pose": [0.6, 0.1, 0.3],
+            "lift_height_m": 0.07,
+            "slide_error_m": 0.01,
+            "slide_error_rad": 0.05,
+            "phase_reached": "done",
+            "failure": None,
+        }
+
+
+@pytest.fixture
+def fake(monkeypatch: pytest.MonkeyPatch) -> FakeEpisode:
+    episode = FakeEpisode()
+    monkeypatch.setattr(cli, "_run_episode", lambda: episode)
+    monkeypatch.setattr(bench_execute, "_run_episode", lambda: episode)
+    return episode
+
+
+def test_run_json_prints_one_object_with_the_contract_keys(
+    fake: FakeEpisode, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["run", "--json"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("\n") == 1
+    assert set(json.loads(out)) >= CONTRACT_KEYS
+    assert fake.calls == [
+        {
+            "object": "L",
+            "table": "square",
+            "scale": 1.0,
+            "seed": 0,
+            "planner": "regions",
+            "time_budget": 10.0,
+            "video": None,
+        }
+    ]
+
+
+def test_run_passes_options_and_prints_a_short_summary(
+    fake: FakeEpisode, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    video = tmp_path / "ep.gif"
+    argv = ["run", "--object", "E", "--table", "round", "--scale", "1.2", "--seed", "3"]
+    argv += ["--planner", "cbirrt2", "--time-budget", "4", "--video", str(video)]
+    assert main(argv) == 0
+    assert fake.calls[0] == {
+        "object": "E",
+        "table": "round",
+        "scale": 1.2,
+        "seed": 3,
+        "planner": "cbirrt2",
+        "time_budget": 4.0,
+        "video": video,
+    }
+    lines = capsys.readouterr().out.splitlines()
+    assert 2 <= len(lines) <= 6
+    assert lines[0].startswith("lifted: E on round")
+    assert "1.0 cm" in lines[2] and "2.9 deg" in lines[2]
+
+
+def test_run_value_error_exits_2_with_one_line_on_stderr(
+    fake: FakeEpisode, capsys: pytest.CaptureFixture[str]
+) -> None:
+    fake.error = "unknown object 'banana'; choose from square, circle"
+    assert main(["run", "--object", "banana", "--json"]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert captured.err == f"slide-gym run: error: {fake.error}\n"
+
+
+def test_execute_case_turns_a_value_error_into_a_failure_row(fake: FakeEpisode) -> None:
+    fake.error = "object does not fit on the table"
+    case = {"object": "E", "table": "triangle", "seed": 2, "planner": "regions", "time_budget": 5}
+    row = execute_case(case)
+    assert set(row) >= CONTRACT_KEYS
+    assert row["success"] is False and row["planned"] is False
+    assert row["failure"] == fake.error
+    assert (row["object"], row["table"], row["seed"]) == ("E", "triangle", 2)
+    assert fake.calls[0]["time_budget"] == 5
+
+
+def _row(obj: str, table: str, success: bool, error_m: float | None, wall: float) -> dict:
+    return {
+        "object": obj,
+        "table": table,
+        "planner": "regions",
+        "success": success,
+        "planned": error_m is not None,
+        "wall_time_s": wall,
+        "slide_error_m": error_m,
+        "slide_error_rad": None if error_m is None else 10 * error_m,
+    }
+
+
+ROWS = [
+    _row("L", "square", True, 0.01, 10.0),
+    _row("L", "round", False, 0.03, 20.0),
+    _row("L", "square", True, 0.02, 30.0),
+    _row("square", "round", False, None, 40.0),
+]
+
+
+def test_summarize_execute_rates_medians_and_rows() -> None:
+    s = summarize_execute(ROWS)
+    assert s["n"] == 4 and s["planners"] == ["regions"]
+    assert s["success_rate"] == 0.5 and s["planned_rate"] == 0.75
+    assert s["wall_time_s_median"] == 25.0
+    assert s["wall_time_s_p90"] == pytest.approx(37.0)
+    assert s["slide_error_m_median"] == pytest.approx(0.02)
+    assert s["slide_error_rad_median"] == pytest.approx(0.2)
+    assert s["slide_error_deg_median"] == pytest.approx(math.degrees(0.2))
+    assert list(s["by_object"]) == ["square", "L"]  # catalog order
+    letter = s["by_object"]["L"]
+    assert letter["n"] == 3 and letter["success_rate"] == pytest.approx(2 / 3)
+    assert letter["slide_error_cm_median"] == pytest.approx(2.0)
+    assert letter["slide_error_deg_median"] == pytest.approx(math.degrees(0.2))
+    assert letter["wall_time_s_median"] == 20.0
+    sq = s["by_object"]["square"]
+    assert sq["slide_error_cm_median"] is None and sq["slide_error_deg_median"] is None
+    assert s["by_table"]["round"] == {
+        "n": 2,
+        "success_rate": 0.0,
+        "slide_error_cm_median": pytest.approx(3.0),
+        "slide_error_deg_median": pytest.approx(math.degrees(0.3)),
+        "wall_time_s_median": 30.0,
+    }
+
+
+def test_summarize_execute_of_nothing() -> None:
+    s = summarize_execute([])
+    assert s["n"] == 0 and s["success_rate"] is None and s["wall_time_s_p90"] is None
+    assert "0 episodes" in execute_markdown_table(s)
+
+
+def test_markdown_lists_every_object_and_table() -> None:
+    rows = [_row(o, t, True, 0.01, 5.0) for o in OBJECT_NAMES for t in TABLE_NAMES]
+    md = execute_markdown_table(summarize_execute(rows))
+    cells = {line.split("|")[1].strip() for line in md.splitlines() if line.startswith("| ")}
+    assert set(OBJECT_NAMES) | set(TABLE_NAMES) <= cells
+    assert md.splitlines()[0].startswith("**Overall**")
+    assert "100%" in md and "| - |" not in md
+
+
+def test_bench_execute_runs_every_case_once_and_resumes(
+    fake: FakeEpisode, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "execute.jsonl"
+    argv = ["bench", "execute", "--objects", "L,square", "--tables", "square,round"]
+    argv += ["--trials", "2", "--seed", "5", "--workers", "1", "--out", str(out)]
+    assert main(argv) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["n"] == 8 and summary["success_rate"] == 1.0
+    assert sorted({c["seed"] for c in fake.calls}) == [5, 6]
+    assert len(out.read_text().splitlines()) == 8
+    assert main([*argv, "--markdown"]) == 0
+    assert len(fake.calls) == 8
+    assert "| L | 4 | 100% |" in capsys.readouterr().out
+
+
+def test_bench_execute_rejects_bad_input(
+    fake: FakeEpisode, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = str(tmp_path / "x.jsonl")
+    assert main(["bench", "execute", "--objects", "banana", "--out", out]) == 2
+    assert "banana" in capsys.readouterr().err
+    assert main(["bench", "execute", "--trials", "0", "--out", out]) == 2
+    assert main(["bench", "execute", "--time-budget", "0", "--out", out]) == 2
+    assert fake.calls == []

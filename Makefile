@@ -17,7 +17,7 @@ $(VENV)/.installed: pyproject.toml
 install: $(VENV)/.installed
 
 demo: $(VENV)/.installed
-	$(VENV)/bin/slide-gym demo --out docs/demo.gif
+	$(VENV)/bin/slide-gym run --object E --table square --seed 0 --video docs/expert.gif --json
 
 test: $(VENV)/.installed
 	$(PY) -m ruff check .

@@ -50,13 +50,15 @@ EXPERT_SLIDE_PARAMS = SlideParams(
     press_radius=0.015,
     u_star=0.04,
     centroid_margin=0.015,
+    max_rotation=0.8,
     grasp=GraspParams(retreat=0.06),
 )
 """Planner settings the expert uses by default: a contact depth band deep enough that the
 fingertip keeps dragging the plate (shallow presses slip), and press points within 1.5 cm of
 the plate's centroid (the plate then hardly spins about the fingertip), and a planned overhang
 of 4.5 cm, 1.5 cm more than the task's u*, with the centroid 2.5 cm inside the edge, as
-margins for the slide's error; the grasp is
+margins for the slide's error, and a plate turn of at most 0.8 rad (the plate slips
+about the fingertip in larger turns); the grasp is
 approached from 6 cm out (the fingers clear the plate's corners while the arm settles)."""
 
 
@@ -79,6 +81,10 @@ class ExpertParams:
     lift: float = 0.12  # m the grasp frame rises
     lift_speed: float = 0.05  # m/s
     tip_gain: float = 0.3  # per control step, integral gain of the fingertip loop
+    object_gain: float = 0.02  # per control step, integral gain of the plate-pose loop
+    max_object_correction: float = 0.03  # m
+    slide_settle_s: float = 0.5  # s at the slide's end: the plate comes to rest, still pressed
+    contact_deflection: float = 0.05  # rad of finger A's proximal joint: it is pressing
     max_correction: float = 0.04  # m, largest Cartesian correction of the fingertip
     max_replans: int = 2
     grasp_u_star: float = 0.032  # m, least real overhang to go for the grasp (task: 0.03)
@@ -109,6 +115,7 @@ class _Step:
     hand: float
     phase: str
     track: bool
+    object_xy: np.ndarray | None = None  # where Eq. 2 puts the plate at this step
 
 
 class SlideGraspExpert:
@@ -145,6 +152,7 @@ class SlideGraspExpert:
         self.q_cmd: np.ndarray | None = None
         self.hand_cmd = 0.0
         self.correction = np.zeros(2)
+        self.object_offset = np.zeros(2)
         self.planner: TopSlidePlanner | None = None
         self.obj: ObjectShape | None = None
         self.table: TableShape | None = None
@@ -175,9 +183,10 @@ class SlideGraspExpert:
             return self._action(self.q_cmd, self.hand_cmd)
         step = self.queue.popleft()
         self.phase = step.phase
-        target = step.q + self._track(step.q, obs) if step.track else step.q
+        target = step.q + self._track(step, obs) if step.track else step.q
         if not self.queue or not self.queue[0].track:
             self.correction[:] = 0.0  # the correction is now part of the command
+            self.object_offset[:] = 0.0
         return self._action(target, step.hand)
 
     def _action(self, target: np.ndarray, hand: float) -> np.ndarray:
@@ -188,13 +197,24 @@ class SlideGraspExpert:
         self.hand_cmd = hand
         return np.r_[delta, 2.0 * hand - 1.0].astype(np.float32)
 
-    def _track(self, q_plan: np.ndarray, obs: dict[str, np.ndarray]) -> np.ndarray:
-        """Joint offset that moves the real fingertip onto the planned one (xy only)."""
-        t, jac = self.tip.jacobian(q_plan)
-        error = t[:2, 3] - np.asarray(obs["fingertip_pose"][:2], dtype=float)
-        limit = self.params.max_correction
-        self.correction = np.clip(self.correction + self.params.tip_gain * error, -limit, limit)
-        twist = np.r_[self.correction, 0.0, 0.0, 0.0, 0.0]
+    def _track(self, step: _Step, obs: dict[str, np.ndarray]) -> np.ndarray:
+        """Joint offset that moves the real fingertip onto the planned one (xy only).
+
+        While sliding, a slower outer loop shifts that fingertip target by the plate's lag
+        behind its Eq. 2 pose (the tip creeps a little over the plate as it drags it).
+        """
+        p = self.params
+        t, jac = self.tip.jacobian(step.q)
+        pressing = float(obs["finger_qpos"][0]) > p.contact_deflection
+        if step.object_xy is not None and pressing:
+            lag = step.object_xy - np.asarray(obs["object_pose"][:2], dtype=float)
+            limit = p.max_object_correction
+            self.object_offset = np.clip(self.object_offset + p.object_gain * lag, -limit, limit)
+        setpoint = t[:2, 3] + self.object_offset
+        error = setpoint - np.asarray(obs["fingertip_pose"][:2], dtype=float)
+        limit = p.max_correction
+        self.correction = np.clip(self.correction + p.tip_gain * error, -limit, limit)
+        twist = np.r_[self.correction + self.object_offset, 0.0, 0.0, 0.0, 0.0]
         return jac.T @ np.linalg.solve(jac @ jac.T + 1e-4 * np.eye(6), twist)
 
     # --------------------------------------------------------------- stages
@@ -214,6 +234,7 @@ class SlideGraspExpert:
     def _fail(self, why: str) -> None:
         self.report["failure"] = why
         self.phase = "failed"
+        self.queue.clear()
         if self.planner is not None:
             self.planner.close()
             self.planner = None
@@ -292,7 +313,13 @@ class SlideGraspExpert:
         self._push(Segment("approach", np.array(route), p.approach_speed), self.tip)
         press = Segment("press", np.array([q_pre, q_s]), 1.0, p.press_speed, hold_s=p.press_hold_s)
         self._push(press, self.tip, track=True)
-        self._push(Segment("slide", path, 1.0, p.slide_speed), self.tip, track=True)
+        first = len(self.queue)
+        slide = Segment("slide", path, 1.0, p.slide_speed, hold_s=p.slide_settle_s)
+        self._push(slide, self.tip, track=True)
+        targets = [step.q for step in list(self.queue)[first:]]
+        gammas = planar_pose(self.tip.forward(np.stack([q_s, *targets])))
+        for step, gamma in zip(list(self.queue)[first:], gammas[1:], strict=True):
+            step.object_xy = slid_object_pose(gammas[0], gamma, pose)[:2]
         self.q_slide_end = np.asarray(path[-1], dtype=float)
 
     def _push(self, segment: Segment, chain: FastChain | None, track: bool = False) -> None:
@@ -345,6 +372,15 @@ class SlideGraspExpert:
         p = self.params
         assert self.q_cmd is not None
         q_grasp = transfer[-1]
+        q_up = None
+        for height in (p.lift, 0.75 * p.lift, 0.5 * p.lift):  # near the edge of the workspace
+            up = self.hand.forward(q_grasp)
+            up[2, 3] += height
+            q_up = self._ik(self.hand, up, q_grasp)
+            if q_up is not None:
+                break
+        if q_up is None:
+            return self._fail("no IK solution for lifting the grasped object")
         route = np.vstack([self.q_cmd, transfer[1:-1]])
         transfer_leg = Segment(
             "transfer", route, p.transfer_speed, p.transfer_tip_speed, hold_s=p.settle_s
@@ -352,11 +388,6 @@ class SlideGraspExpert:
         self._push(transfer_leg, self.hand)
         self._push(Segment("approach_grasp", transfer[-2:], 1.0, p.grasp_speed), self.hand)
         self._push(Segment("close", transfer[-1:], hand=1.0, hold_s=p.close_s), None)
-        up = self.hand.forward(q_grasp)
-        up[2, 3] += p.lift
-        q_up = self._ik(self.hand, up, q_grasp)
-        if q_up is None:
-            return self._fail("no IK solution for lifting the grasped object")
         lift = Segment("lift", np.array([q_grasp, q_up]), 1.0, p.lift_speed, hand=1.0, hold_s=1.0)
         self._push(lift, self.hand)
         if self.planner is not None:

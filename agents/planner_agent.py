@@ -29,8 +29,8 @@ class PlannerAgent:
 
     Each batch slot keeps its own episode controller. A slot starts a new episode when
     ``episode_start`` says so (as ``evaluate_policy`` and SB3 loops pass it), when
-    :meth:`reset` is called, or when the observed arm is far from the agent's last target
-    (an environment reset that nobody reported).
+    :meth:`reset` is called, or, when ``episode_start`` is not given at all, when the observed
+    arm is far from the agent's last target (an environment reset that nobody reported).
 
     Args:
         planner: ``"regions"`` (the paper's), ``"cbirrt"`` or ``"cbirrt2"`` (the baselines).
@@ -107,7 +107,8 @@ class PlannerAgent:
                 k: np.asarray(v)[i] if batched else np.asarray(v) for k, v in observation.items()
             }
             slot = self._slots[i]
-            if starts[i] or slot is None or self._was_reset(slot, obs):
+            unreported_reset = episode_start is None and self._was_reset(slot, obs)
+            if starts[i] or slot is None or unreported_reset:
                 if slot is not None:
                     slot.close()
                 slot = self._slots[i] = self._new_expert()
@@ -127,8 +128,8 @@ class PlannerAgent:
         )
 
     @staticmethod
-    def _was_reset(slot: SlideGraspExpert, obs: dict[str, np.ndarray]) -> bool:
-        if slot.q_cmd is None:
+    def _was_reset(slot: SlideGraspExpert | None, obs: dict[str, np.ndarray]) -> bool:
+        if slot is None or slot.q_cmd is None:
             return False
         return bool(np.abs(np.asarray(obs["arm_qpos"]) - slot.q_cmd).max() > _RESET_JUMP)
 

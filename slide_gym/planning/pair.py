@@ -93,6 +93,14 @@ def grasp_poses(
     return out
 
 
+def _edges_near(table: shapely.Polygon, part: shapely.Geometry, gap: float = 1e-3) -> list:
+    """Table edges (2, 2) within ``gap`` of ``part``, nearest first."""
+    ring = shapely.get_coordinates(table.exterior)
+    edges = np.stack([ring[:-1], ring[1:]], axis=1)
+    dist = shapely.distance(shapely.linestrings(edges), part)
+    return [edges[k] for k in np.argsort(dist) if dist[k] <= gap]
+
+
 class PairValidator:
     """Callable ``(q_s, q_g) -> (ok, info)`` for the search; ``info`` explains the verdict."""
 
@@ -108,9 +116,11 @@ class PairValidator:
         grasp: GraspParams | None = None,
         ik_params: IKParams | None = None,
         centroid_margin: float = 0.0,
+        max_rotation: float = math.inf,
     ):
         self.obj, self.table = obj, table
         self.centroid_margin = float(centroid_margin)
+        self.max_rotation = float(max_rotation)
         self.object_start = np.asarray(object_start, dtype=float)
         self.u_star = float(u_star)
         self.tip_chain = tip_chain
@@ -121,7 +131,17 @@ class PairValidator:
         self.ik_params = ik_params or IKParams()
         self.deadline = math.inf  # set by the planner: the fallback never runs past it
         self.counts = dict.fromkeys(
-            ("overhang", "reach", "grasp_ik", "transfer", "timeout", "fallback", "valid"), 0
+            (
+                "rotation",
+                "overhang",
+                "reach",
+                "grasp_ik",
+                "transfer",
+                "timeout",
+                "fallback",
+                "valid",
+            ),
+            0,
         )
 
     def object_goal(self, q_s: np.ndarray, q_g: np.ndarray) -> np.ndarray:
@@ -130,7 +150,13 @@ class PairValidator:
         return slid_object_pose(gammas[0], gammas[1], self.object_start)
 
     def __call__(self, q_s: np.ndarray, q_g: np.ndarray) -> tuple[bool, dict[str, Any]]:
-        return self.check_placement(self.object_goal(q_s, q_g), q_g)
+        goal = self.object_goal(q_s, q_g)
+        turn = abs((goal[2] - self.object_start[2] + math.pi) % (2 * math.pi) - math.pi)
+        if turn > self.max_rotation:
+            self.counts["rotation"] += 1
+            reason = f"the plate would turn {turn:.2f} rad > {self.max_rotation:.2f}"
+            return False, {"object_goal_pose": goal, "overhang_m": 0.0, "reason": reason}
+        return self.check_placement(goal, q_g)
 
     def check_placement(
         self,
@@ -163,6 +189,12 @@ class PairValidator:
         info["edge"] = ov.edge
         z_mid = self.table.height + 0.5 * self.obj.thickness
         poses = grasp_poses(ov.outside, ov.edge, z_mid, self.grasp)
+        if poses is None:  # near a corner: try the other edges the overhang sticks out over
+            for edge in _edges_near(self.table.polygon, ov.outside):
+                poses = grasp_poses(ov.outside, edge, z_mid, self.grasp)
+                if poses is not None:
+                    info["edge"] = edge
+                    break
         if poses is None:
             self.counts["overhang"] += 1
             return False, {**info, "reason": "too little plate on the grasp line"}

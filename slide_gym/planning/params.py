@@ -36,6 +36,7 @@ class SlideParams:
     goal_band_width: float = 0.05  # m, width of the band P_g inside the table outline
     goal_band_reachable: bool = True  # keep only edge stretches with a reachable side grasp
     path_resolution: float = 0.01  # m, largest fingertip move between returned path states
+    max_rotation: float = math.inf  # rad, largest plate turn a valid pair may ask for
     centroid_margin: float = 0.0  # m the placed plate's centroid must lie inside the table edge
     press_radius: float | None = None  # m: press only near the centroid (None: anywhere, paper)
     shortcut_attempts: int = 40  # constrained shortcuts tried on the found slide (0: none)
@@ -49,6 +50,8 @@ class SlideParams:
         for name in ("goal_band_width", "path_resolution"):
             _finite(getattr(self, name), name, positive=True)
         _finite(self.centroid_margin, "centroid_margin")
+        if not (isinstance(self.max_rotation, Real) and self.max_rotation > 0):
+            raise ValueError(f"max_rotation must be a positive number, got {self.max_rotation!r}")
         try:
             lo, hi = (float(v) for v in self.dz)
         except (TypeError, ValueError):
@@ -84,6 +87,8 @@ class SlideParams:
         out = asdict(self)
         out["dz"] = list(self.dz)
         out["distance_weights"] = list(self.distance_weights)
+        if math.isinf(self.max_rotation):
+            out["max_rotation"] = None  # no limit (JSON has no infinity)
         return out
 
 

@@ -165,6 +165,7 @@ class TopSlidePlanner(Planner):
             p.grasp,
             p.ik,
             p.centroid_margin,
+            p.max_rotation,
         )
         self.search_params = SearchParams(
             step_size=p.step, n_star=p.n_star, distance_weights=p.distance_weights

@@ -26,12 +26,14 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import shapely
 
 from agents.scene import SceneLibrary
 from agents.trajectory import Segment, time_segment
 from slide_gym.geometry import ObjectShape, TableShape, overhang, transform_polygon
 from slide_gym.planning.api import (
     GraspParams,
+    IKParams,
     IKTarget,
     SlideParams,
     TopSlidePlanner,
@@ -46,20 +48,25 @@ from slide_gym.planning.kin import FastChain
 from slide_gym.robot.model import ARM_LOWER, ARM_UPPER
 
 EXPERT_SLIDE_PARAMS = SlideParams(
-    dz=(0.012, 0.025),
+    dz=(0.012, 0.02),
     press_radius=0.015,
+    press_edge_margin=0.008,
     u_star=0.04,
     centroid_margin=0.015,
     max_rotation=0.8,
     grasp=GraspParams(retreat=0.06),
 )
-"""Planner settings the expert uses by default: a contact depth band deep enough that the
-fingertip keeps dragging the plate (shallow presses slip), and press points within 1.5 cm of
-the plate's centroid (the plate then hardly spins about the fingertip), and a planned overhang
-of 4.5 cm, 1.5 cm more than the task's u*, with the centroid 2.5 cm inside the edge, as
-margins for the slide's error, and a plate turn of at most 0.8 rad (the plate slips
-about the fingertip in larger turns); the grasp is
-approached from 6 cm out (the fingers clear the plate's corners while the arm settles)."""
+"""Planner settings the expert uses by default, with margins for the real slide:
+
+- contact depth 1.2-2.0 cm: shallower presses let the fingertip slip over the plate, deeper
+  ones bring finger B within millimetres of the plate top;
+- press points at least 8 mm inside the plate's outline (a rounded tip slips off an edge),
+  and of those, the ones within 1.5 cm of the one nearest the plate's centroid (the plate
+  then hardly spins about the tip);
+- a planned overhang of 4 cm (1 cm more than the task's u*) with the centroid at least
+  1.5 cm inside the edge;
+- at most 0.8 rad of plate rotation: in larger turns the plate slips about the fingertip;
+- the grasp approached from a stand-off 6 cm out, clear of the plate's corners."""
 
 
 @dataclass(frozen=True)
@@ -87,6 +94,7 @@ class ExpertParams:
     contact_deflection: float = 0.05  # rad of finger A's proximal joint: it is pressing
     max_correction: float = 0.04  # m, largest Cartesian correction of the fingertip
     max_replans: int = 2
+    pull_back_margin: float = 0.012  # m: a slid plate's centroid closer to the edge is pulled back
     grasp_u_star: float = 0.032  # m, least real overhang to go for the grasp (task: 0.03)
 
     def __post_init__(self) -> None:
@@ -107,6 +115,11 @@ def quat_yaw(quat: np.ndarray) -> float:
 def wrap_angle(a: float) -> float:
     """``a`` wrapped to [-pi, pi)."""
     return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+_LOCAL_IK = IKParams(n_restarts=1)  # the seed only: no jump to another IK branch
+_LINE_STEP = 0.01  # m between the IK waypoints of a straight Cartesian move
+_LINE_MAX_JOINT_STEP = 0.3  # rad: a larger change between waypoints means a branch switch
 
 
 @dataclass
@@ -183,10 +196,10 @@ class SlideGraspExpert:
             return self._action(self.q_cmd, self.hand_cmd)
         step = self.queue.popleft()
         self.phase = step.phase
-        target = step.q + self._track(step, obs) if step.track else step.q
-        if not self.queue or not self.queue[0].track:
-            self.correction[:] = 0.0  # the correction is now part of the command
+        if not step.track:  # untracked legs start from the command, corrections included
+            self.correction[:] = 0.0
             self.object_offset[:] = 0.0
+        target = step.q + self._track(step, obs) if step.track else step.q
         return self._action(target, step.hand)
 
     def _action(self, target: np.ndarray, hand: float) -> np.ndarray:
@@ -223,6 +236,8 @@ class SlideGraspExpert:
         if self.phase == "plan":
             self._plan(obs)
         elif self.phase == "slide":
+            self._pull_back_or_lift_off(obs)
+        elif self.phase == "pull_back":
             self._lift_off()
         elif self.phase == "lift_off":
             self._after_lift_off(obs)
@@ -280,15 +295,30 @@ class SlideGraspExpert:
     def _ik(self, chain: FastChain, t: np.ndarray, seed: np.ndarray) -> np.ndarray | None:
         return solve_ik(chain, IKTarget(t[:3, 3], t[:3, :3]), self.rng, seed[None])
 
+    def _line(self, chain: FastChain, q0: np.ndarray, offset: np.ndarray) -> np.ndarray | None:
+        """Joint waypoints that move ``chain``'s frame by ``offset`` (world, m) along a straight
+        line, orientation kept. Each IK starts from the previous waypoint only, so the arm
+        stays on one IK branch (a joint-space move between branches can sweep the hand)."""
+        start = chain.forward(q0)
+        n = max(1, math.ceil(float(np.linalg.norm(offset)) / _LINE_STEP))
+        path = [np.asarray(q0, dtype=float)]
+        for k in range(1, n + 1):
+            pos = start[:3, 3] + offset * k / n
+            q = solve_ik(chain, IKTarget(pos, start[:3, :3]), self.rng, path[-1][None], _LOCAL_IK)
+            if q is None or np.abs(q - path[-1]).max() > _LINE_MAX_JOINT_STEP:
+                return None
+            path.append(q)
+        return np.array(path)
+
     def _queue_press_and_slide(self, q_s: np.ndarray, path: np.ndarray, pose: np.ndarray) -> None:
         p, planner = self.params, self.planner
         assert planner is not None and self.q_cmd is not None
-        above = self.tip.forward(q_s)
-        above[2, 3] += p.pre_contact_height
-        q_pre = self._ik(self.tip, above, q_s)
-        if q_pre is None:
+        down = self._line(self.tip, q_s, np.array([0.0, 0.0, p.pre_contact_height]))
+        if down is None:
             return self._fail("no IK solution above the press point")
-        high = above.copy()
+        down = down[::-1]  # from above the press point straight down to it
+        q_pre = down[0]
+        high = self.tip.forward(q_pre)
         high[2, 3] += 0.15
         q_high = self._ik(self.tip, high, q_pre)
         checker = planner.checker
@@ -311,7 +341,7 @@ class SlideGraspExpert:
         finally:
             checker.place_object(None)
         self._push(Segment("approach", np.array(route), p.approach_speed), self.tip)
-        press = Segment("press", np.array([q_pre, q_s]), 1.0, p.press_speed, hold_s=p.press_hold_s)
+        press = Segment("press", down, 1.0, p.press_speed, hold_s=p.press_hold_s)
         self._push(press, self.tip, track=True)
         first = len(self.queue)
         slide = Segment("slide", path, 1.0, p.slide_speed, hold_s=p.slide_settle_s)
@@ -326,17 +356,36 @@ class SlideGraspExpert:
         for q in time_segment(segment, self.dt, chain):
             self.queue.append(_Step(q, segment.hand, segment.name, track))
 
+    def _pull_back_or_lift_off(self, obs: dict[str, np.ndarray]) -> None:
+        """If the slide left the plate's centroid at (or past) the table edge, drag it back
+        inward while still pressing; a plate lifted off there would tip over the edge."""
+        assert self.table is not None
+        pose = self._object_pose(obs)
+        centroid = shapely.Point(pose[0], pose[1])
+        ring = self.table.polygon.exterior
+        edge_point = np.asarray(ring.interpolate(ring.project(centroid)).coords[0])
+        inside = self.table.polygon.contains(centroid)
+        depth = centroid.distance(ring) * (1.0 if inside else -1.0)
+        if depth >= self.params.pull_back_margin:
+            return self._lift_off()
+        inward = (pose[:2] - edge_point) * (1.0 if inside else -1.0)
+        inward /= max(float(np.linalg.norm(inward)), 1e-9)
+        shift = np.r_[inward * (self.params.pull_back_margin - depth + 0.005), 0.0]
+        line = self._line(self.tip, self.q_slide_end, shift)
+        if line is None:
+            return self._lift_off()
+        self.report["events"].append(f"centroid {depth:.3f} m inside the edge: pulled back")
+        self._push(Segment("pull_back", line, 1.0, self.params.press_speed), self.tip, track=True)
+        self.q_slide_end = line[-1]
+
     def _lift_off(self) -> None:
         """Raise the fingertip off the plate, still holding its xy (the finger unloads)."""
         assert self.q_cmd is not None
         q_end = self.q_slide_end  # the nominal (uncorrected) end of the slide
-        up = self.tip.forward(q_end)
-        up[2, 3] += self.params.lift_off_height
-        q_up = self._ik(self.tip, up, q_end)
-        if q_up is None:
+        line = self._line(self.tip, q_end, np.array([0.0, 0.0, self.params.lift_off_height]))
+        if line is None:
             return self._fail("no IK solution to lift the fingertip off the plate")
-        lift = Segment("lift_off", np.array([q_end, q_up]), 1.0, self.params.press_speed)
-        self._push(lift, self.tip, track=True)
+        self._push(Segment("lift_off", line, 1.0, self.params.press_speed), self.tip, track=True)
 
     def _after_lift_off(self, obs: dict[str, np.ndarray]) -> None:
         """Compare the real slid pose with Eq. 2; re-aim the grasp at it, or replan."""
@@ -372,15 +421,18 @@ class SlideGraspExpert:
         p = self.params
         assert self.q_cmd is not None
         q_grasp = transfer[-1]
-        q_up = None
+        lift_path = None
         for height in (p.lift, 0.75 * p.lift, 0.5 * p.lift):  # near the edge of the workspace
-            up = self.hand.forward(q_grasp)
-            up[2, 3] += height
-            q_up = self._ik(self.hand, up, q_grasp)
-            if q_up is not None:
+            lift_path = self._line(self.hand, q_grasp, np.array([0.0, 0.0, height]))
+            if lift_path is not None:
                 break
-        if q_up is None:
-            return self._fail("no IK solution for lifting the grasped object")
+        if lift_path is None:  # blocked by a joint limit: any IK branch, a joint-space move
+            up = self.hand.forward(q_grasp)
+            up[2, 3] += p.lift
+            q_up = self._ik(self.hand, up, q_grasp)
+            if q_up is None:
+                return self._fail("no IK solution for lifting the grasped object")
+            lift_path = np.array([q_grasp, q_up])
         route = np.vstack([self.q_cmd, transfer[1:-1]])
         transfer_leg = Segment(
             "transfer", route, p.transfer_speed, p.transfer_tip_speed, hold_s=p.settle_s
@@ -388,7 +440,7 @@ class SlideGraspExpert:
         self._push(transfer_leg, self.hand)
         self._push(Segment("approach_grasp", transfer[-2:], 1.0, p.grasp_speed), self.hand)
         self._push(Segment("close", transfer[-1:], hand=1.0, hold_s=p.close_s), None)
-        lift = Segment("lift", np.array([q_grasp, q_up]), 1.0, p.lift_speed, hand=1.0, hold_s=1.0)
+        lift = Segment("lift", lift_path, 1.0, p.lift_speed, hand=1.0, hold_s=1.0)
         self._push(lift, self.hand)
         if self.planner is not None:
             self.planner.close()

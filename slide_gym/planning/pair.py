@@ -46,7 +46,7 @@ class GraspParams:
 
     depth: float = 0.015  # the fingertips reach this far in from the overhang's outer end
     edge_clearance: float = 0.005  # least gap between the fingertips and the table edge
-    lift: float = 0.08  # fingertip lift off the plate after sliding
+    lift: float = 0.08  # fingertip lift off the plate after sliding; the grasp must rise this
     retreat: float = 0.04  # pre-grasp stand-off outside the edge, along the approach
     rise: float = 0.08  # the pre-grasp is approached from this high above the grasp
     clear_height: float = 0.2  # height over the table top the hand rises to before turning
@@ -99,6 +99,9 @@ def _edges_near(table: shapely.Polygon, part: shapely.Geometry, gap: float = 1e-
     edges = np.stack([ring[:-1], ring[1:]], axis=1)
     dist = shapely.distance(shapely.linestrings(edges), part)
     return [edges[k] for k in np.argsort(dist) if dist[k] <= gap]
+
+
+_SEED_ONLY = IKParams(n_restarts=1)
 
 
 class PairValidator:
@@ -212,6 +215,9 @@ class PairValidator:
                 q_grasp = self._ik(pos, rot, q_g)
                 if q_grasp is None or self.checker.collides(q_grasp, "full"):
                     continue
+                if not self._liftable(q_grasp, pos, rot):
+                    reason, counter = "the grasp configuration cannot lift the plate", "grasp_ik"
+                    continue
                 path = self._transfer(q_g, q_grasp, pos, rot, lifted)
                 if path is not None:
                     self.counts["valid"] += 1
@@ -227,6 +233,19 @@ class PairValidator:
         chain = chain or self.hand
         target = IKTarget(pos, rot)
         return solve_ik(chain, target, self.rng, seed[None], self.ik_params, self.deadline)
+
+    def _liftable(self, q_grasp: np.ndarray, pos: np.ndarray, rot: np.ndarray) -> bool:
+        """The hand can rise ``grasp.lift`` straight up from ``q_grasp`` on the same IK branch
+        (a grasp at a joint limit cannot lift the plate)."""
+        n = max(1, math.ceil(self.grasp.lift / 0.02))
+        q = q_grasp
+        for k in range(1, n + 1):
+            target = IKTarget(pos + [0.0, 0.0, self.grasp.lift * k / n], rot)
+            nxt = solve_ik(self.hand, target, self.rng, q[None], _SEED_ONLY, self.deadline)
+            if nxt is None or np.abs(nxt - q).max() > 0.5:
+                return False
+            q = nxt
+        return True
 
     def _transfer(self, q_g, q_grasp, pos, rot, from_lifted=False) -> np.ndarray | None:
         """phi_g -> lifted -> high pre-grasp -> pre-grasp -> grasp (or lifted -> grasp, or a

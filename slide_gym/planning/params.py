@@ -38,6 +38,7 @@ class SlideParams:
     path_resolution: float = 0.01  # m, largest fingertip move between returned path states
     max_rotation: float = math.inf  # rad, largest plate turn a valid pair may ask for
     centroid_margin: float = 0.0  # m the placed plate's centroid must lie inside the table edge
+    press_edge_margin: float = 0.0  # m, least distance of a press point from the plate's edge
     press_radius: float | None = None  # m: press only near the centroid (None: anywhere, paper)
     shortcut_attempts: int = 40  # constrained shortcuts tried on the found slide (0: none)
     distance_weights: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0, 0.6, 0.6, 0.3)
@@ -50,6 +51,7 @@ class SlideParams:
         for name in ("goal_band_width", "path_resolution"):
             _finite(getattr(self, name), name, positive=True)
         _finite(self.centroid_margin, "centroid_margin")
+        _finite(self.press_edge_margin, "press_edge_margin")
         if not (isinstance(self.max_rotation, Real) and self.max_rotation > 0):
             raise ValueError(f"max_rotation must be a positive number, got {self.max_rotation!r}")
         try:

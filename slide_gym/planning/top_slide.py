@@ -75,6 +75,9 @@ class TopSlideProblem:
         self.z_surface = self.table.height + self.object.thickness
         self.height_range = self.params.contact_height_range(self.z_surface)
         top = self.object.top_surface_points(self.params.cloud_spacing)
+        if self.params.press_edge_margin > 0.0:  # a rounded tip pressed near an edge slips off
+            inset = shapely.distance(self.object.polygon.boundary, shapely.points(top[:, :2]))
+            top = top[inset >= min(self.params.press_edge_margin, inset.max())]
         if self.params.press_radius is not None:  # P_o near the centroid: less spin while sliding
             d = np.linalg.norm(top[:, :2], axis=1)  # the shape's frame is centred on its centroid
             top = top[d <= d.min() + self.params.press_radius]

@@ -94,7 +94,9 @@ DISTAL_LENGTH = 0.048  # pivot to tip apex
 TIP_RADIUS = 0.0105  # rounded tip: half-cylinder whose axis runs along the finger width
 DISTAL_THICKNESS = 2 * TIP_RADIUS
 DISTAL_MASS = 0.024
-PAD_FRICTION = 1.0
+PAD_FRICTION = 1.25
+"""Pad lateral friction. PyBullet multiplies coefficients: with the object's 0.8 this gives
+1.0, rubber on plastic; the object on the table gets 0.8 x 0.4 = 0.32, plastic on laminate."""
 TENDON_RATIO = np.array([1.0, 0.5])
 """Tendon torque per unit f_max on (proximal, distal) of each finger."""
 TENDON_RATIO.setflags(write=False)

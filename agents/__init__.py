@@ -6,7 +6,8 @@ expert episode and returns the ``slide-gym run`` summary.
 """
 
 from agents.episode import run_episode
-from agents.expert import EXPERT_SLIDE_PARAMS, ExpertParams, SlideGraspExpert
+from agents.expert import SlideGraspExpert
+from agents.params import EXPERT_SLIDE_PARAMS, ExpertParams
 from agents.planner_agent import PlannerAgent
 
 __all__ = ["EXPERT_SLIDE_PARAMS", "ExpertParams", "PlannerAgent", "SlideGraspExpert", "run_episode"]

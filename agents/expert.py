@@ -6,20 +6,15 @@ object pose, fingertip pose) and keeps its own copy of the environment's arm tar
 
 Phases: ``approach`` (joint-space move to a pose above the press point, via a raised pose if
 the direct move would hit something), ``press`` (straight down to the planned contact depth),
-``slide`` (the planned path), then a check of the real plate pose against Eq. 2's prediction.
-A graspable plate gets a grasp re-aimed at its measured pose: ``lift_off``, ``transfer`` (around
-to a stand-off outside the table edge), ``approach_grasp``, ``close``, ``lift``. A plate left
-ungraspable is re-planned from where it lies, within the total planning budget.
-
-While pressing and sliding the fingertip drags the plate, and finger compliance shifts the tip
-sideways as it is pressed; a small integral loop on the observed fingertip position adds a
-Cartesian correction to the planned joint targets so the real tip follows the planned one.
+``slide`` (the planned path), ``pull_back`` (only if the plate's centroid ended up near or past
+the edge), ``lift_off``, then a check of the real plate pose against Eq. 2's prediction. A
+graspable plate gets a grasp re-aimed at its measured pose: ``transfer`` (up and around to a
+stand-off outside the table edge), ``approach_grasp``, ``close``, ``lift``. A plate left
+ungraspable is re-planned from where it lies, within the total planning budget. While the
+fingertip is pressed, :class:`~agents.tracking.ContactTracker` corrects the planned targets.
 """
-
 from __future__ import annotations
 
-import dataclasses
-import math
 import time
 from collections import deque
 from dataclasses import dataclass
@@ -28,12 +23,12 @@ from typing import Any
 import numpy as np
 import shapely
 
+from agents.params import ExpertParams
 from agents.scene import SceneLibrary
+from agents.tracking import ContactTracker, cartesian_line, quat_yaw, wrap_angle
 from agents.trajectory import Segment, time_segment
 from slide_gym.geometry import ObjectShape, TableShape, overhang, transform_polygon
 from slide_gym.planning.api import (
-    GraspParams,
-    IKParams,
     IKTarget,
     SlideParams,
     TopSlidePlanner,
@@ -46,80 +41,6 @@ from slide_gym.planning.api import (
 )
 from slide_gym.planning.kin import FastChain
 from slide_gym.robot.model import ARM_LOWER, ARM_UPPER
-
-EXPERT_SLIDE_PARAMS = SlideParams(
-    dz=(0.012, 0.02),
-    press_radius=0.015,
-    press_edge_margin=0.008,
-    u_star=0.04,
-    centroid_margin=0.015,
-    max_rotation=0.8,
-    grasp=GraspParams(retreat=0.06),
-)
-"""Planner settings the expert uses by default, with margins for the real slide:
-
-- contact depth 1.2-2.0 cm: shallower presses let the fingertip slip over the plate, deeper
-  ones bring finger B within millimetres of the plate top;
-- press points at least 8 mm inside the plate's outline (a rounded tip slips off an edge),
-  and of those, the ones within 1.5 cm of the one nearest the plate's centroid (the plate
-  then hardly spins about the tip);
-- a planned overhang of 4 cm (1 cm more than the task's u*) with the centroid at least
-  1.5 cm inside the edge;
-- at most 0.8 rad of plate rotation: in larger turns the plate slips about the fingertip;
-- the grasp approached from a stand-off 6 cm out, clear of the plate's corners."""
-
-
-@dataclass(frozen=True)
-class ExpertParams:
-    """Execution speeds, heights and gains (SI units)."""
-
-    approach_speed: float = 1.0  # rad/s, free-space joint speed
-    pre_contact_height: float = 0.05  # m above the press point before pressing
-    press_speed: float = 0.02  # m/s fingertip speed while pressing
-    press_hold_s: float = 0.3
-    slide_speed: float = 0.03  # m/s fingertip speed along the slide
-    transfer_speed: float = 0.6  # rad/s
-    transfer_tip_speed: float = 0.1  # m/s of the grasp frame during the transfer
-    lift_off_height: float = 0.06  # m the fingertip rises off the plate after the slide
-    grasp_budget: float = 1.0  # s to re-aim the grasp at the measured pose
-    settle_s: float = 0.5  # s at the stand-off pose: the arm settles before the approach
-    grasp_speed: float = 0.04  # m/s on the final approach to the grasp
-    close_s: float = 0.8  # hand closing time before lifting
-    lift: float = 0.12  # m the grasp frame rises
-    lift_speed: float = 0.05  # m/s
-    tip_gain: float = 0.3  # per control step, integral gain of the fingertip loop
-    object_gain: float = 0.02  # per control step, integral gain of the plate-pose loop
-    max_object_correction: float = 0.03  # m
-    slide_settle_s: float = 0.5  # s at the slide's end: the plate comes to rest, still pressed
-    contact_deflection: float = 0.05  # rad of finger A's proximal joint: it is pressing
-    max_correction: float = 0.04  # m, largest Cartesian correction of the fingertip
-    max_replans: int = 2
-    pull_back_margin: float = 0.012  # m: a slid plate's centroid closer to the edge is pulled back
-    grasp_u_star: float = 0.032  # m, least real overhang to go for the grasp (task: 0.03)
-
-    def __post_init__(self) -> None:
-        for name, value in dataclasses.asdict(self).items():
-            if name == "max_replans":
-                if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-                    raise ValueError(f"max_replans must be an integer >= 0, got {value!r}")
-            elif not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-                raise ValueError(f"ExpertParams.{name} must be a finite positive number: {value}")
-
-
-def quat_yaw(quat: np.ndarray) -> float:
-    """Yaw (rad) of an xyzw quaternion."""
-    x, y, z, w = (float(v) for v in quat)
-    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-
-
-def wrap_angle(a: float) -> float:
-    """``a`` wrapped to [-pi, pi)."""
-    return (a + math.pi) % (2 * math.pi) - math.pi
-
-
-_LOCAL_IK = IKParams(n_restarts=1)  # the seed only: no jump to another IK branch
-_LINE_STEP = 0.01  # m between the IK waypoints of a straight Cartesian move
-_LINE_MAX_JOINT_STEP = 0.3  # rad: a larger change between waypoints means a branch switch
 
 
 @dataclass
@@ -164,8 +85,7 @@ class SlideGraspExpert:
         self.phase = "plan"
         self.q_cmd: np.ndarray | None = None
         self.hand_cmd = 0.0
-        self.correction = np.zeros(2)
-        self.object_offset = np.zeros(2)
+        self.tracker = ContactTracker(self.tip, params)
         self.planner: TopSlidePlanner | None = None
         self.obj: ObjectShape | None = None
         self.table: TableShape | None = None
@@ -196,10 +116,11 @@ class SlideGraspExpert:
             return self._action(self.q_cmd, self.hand_cmd)
         step = self.queue.popleft()
         self.phase = step.phase
-        if not step.track:  # untracked legs start from the command, corrections included
-            self.correction[:] = 0.0
-            self.object_offset[:] = 0.0
-        target = step.q + self._track(step, obs) if step.track else step.q
+        if step.track:
+            target = step.q + self.tracker.joint_offset(step.q, step.object_xy, obs)
+        else:  # untracked legs start from the command, corrections included
+            self.tracker.reset()
+            target = step.q
         return self._action(target, step.hand)
 
     def _action(self, target: np.ndarray, hand: float) -> np.ndarray:
@@ -209,26 +130,6 @@ class SlideGraspExpert:
         self.q_cmd = np.clip(self.q_cmd + self.max_joint_step * delta, ARM_LOWER, ARM_UPPER)
         self.hand_cmd = hand
         return np.r_[delta, 2.0 * hand - 1.0].astype(np.float32)
-
-    def _track(self, step: _Step, obs: dict[str, np.ndarray]) -> np.ndarray:
-        """Joint offset that moves the real fingertip onto the planned one (xy only).
-
-        While sliding, a slower outer loop shifts that fingertip target by the plate's lag
-        behind its Eq. 2 pose (the tip creeps a little over the plate as it drags it).
-        """
-        p = self.params
-        t, jac = self.tip.jacobian(step.q)
-        pressing = float(obs["finger_qpos"][0]) > p.contact_deflection
-        if step.object_xy is not None and pressing:
-            lag = step.object_xy - np.asarray(obs["object_pose"][:2], dtype=float)
-            limit = p.max_object_correction
-            self.object_offset = np.clip(self.object_offset + p.object_gain * lag, -limit, limit)
-        setpoint = t[:2, 3] + self.object_offset
-        error = setpoint - np.asarray(obs["fingertip_pose"][:2], dtype=float)
-        limit = p.max_correction
-        self.correction = np.clip(self.correction + p.tip_gain * error, -limit, limit)
-        twist = np.r_[self.correction + self.object_offset, 0.0, 0.0, 0.0, 0.0]
-        return jac.T @ np.linalg.solve(jac @ jac.T + 1e-4 * np.eye(6), twist)
 
     # --------------------------------------------------------------- stages
     def _advance(self, obs: dict[str, np.ndarray]) -> None:
@@ -295,25 +196,13 @@ class SlideGraspExpert:
     def _ik(self, chain: FastChain, t: np.ndarray, seed: np.ndarray) -> np.ndarray | None:
         return solve_ik(chain, IKTarget(t[:3, 3], t[:3, :3]), self.rng, seed[None])
 
-    def _line(self, chain: FastChain, q0: np.ndarray, offset: np.ndarray) -> np.ndarray | None:
-        """Joint waypoints that move ``chain``'s frame by ``offset`` (world, m) along a straight
-        line, orientation kept. Each IK starts from the previous waypoint only, so the arm
-        stays on one IK branch (a joint-space move between branches can sweep the hand)."""
-        start = chain.forward(q0)
-        n = max(1, math.ceil(float(np.linalg.norm(offset)) / _LINE_STEP))
-        path = [np.asarray(q0, dtype=float)]
-        for k in range(1, n + 1):
-            pos = start[:3, 3] + offset * k / n
-            q = solve_ik(chain, IKTarget(pos, start[:3, :3]), self.rng, path[-1][None], _LOCAL_IK)
-            if q is None or np.abs(q - path[-1]).max() > _LINE_MAX_JOINT_STEP:
-                return None
-            path.append(q)
-        return np.array(path)
+    def _cartesian(self, chain: FastChain, q0: np.ndarray, offset: np.ndarray):
+        return cartesian_line(chain, q0, offset, self.rng)
 
     def _queue_press_and_slide(self, q_s: np.ndarray, path: np.ndarray, pose: np.ndarray) -> None:
         p, planner = self.params, self.planner
         assert planner is not None and self.q_cmd is not None
-        down = self._line(self.tip, q_s, np.array([0.0, 0.0, p.pre_contact_height]))
+        down = self._cartesian(self.tip, q_s, np.array([0.0, 0.0, p.pre_contact_height]))
         if down is None:
             return self._fail("no IK solution above the press point")
         down = down[::-1]  # from above the press point straight down to it
@@ -371,7 +260,7 @@ class SlideGraspExpert:
         inward = (pose[:2] - edge_point) * (1.0 if inside else -1.0)
         inward /= max(float(np.linalg.norm(inward)), 1e-9)
         shift = np.r_[inward * (self.params.pull_back_margin - depth + 0.005), 0.0]
-        line = self._line(self.tip, self.q_slide_end, shift)
+        line = self._cartesian(self.tip, self.q_slide_end, shift)
         if line is None:
             return self._lift_off()
         self.report["events"].append(f"centroid {depth:.3f} m inside the edge: pulled back")
@@ -382,7 +271,7 @@ class SlideGraspExpert:
         """Raise the fingertip off the plate, still holding its xy (the finger unloads)."""
         assert self.q_cmd is not None
         q_end = self.q_slide_end  # the nominal (uncorrected) end of the slide
-        line = self._line(self.tip, q_end, np.array([0.0, 0.0, self.params.lift_off_height]))
+        line = self._cartesian(self.tip, q_end, np.array([0.0, 0.0, self.params.lift_off_height]))
         if line is None:
             return self._fail("no IK solution to lift the fingertip off the plate")
         self._push(Segment("lift_off", line, 1.0, self.params.press_speed), self.tip, track=True)
@@ -423,7 +312,7 @@ class SlideGraspExpert:
         q_grasp = transfer[-1]
         lift_path = None
         for height in (p.lift, 0.75 * p.lift, 0.5 * p.lift):  # near the edge of the workspace
-            lift_path = self._line(self.hand, q_grasp, np.array([0.0, 0.0, height]))
+            lift_path = self._cartesian(self.hand, q_grasp, np.array([0.0, 0.0, height]))
             if lift_path is not None:
                 break
         if lift_path is None:  # blocked by a joint limit: any IK branch, a joint-space move

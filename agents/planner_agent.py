@@ -8,7 +8,8 @@ from typing import Any
 
 import numpy as np
 
-from agents.expert import EXPERT_SLIDE_PARAMS, ExpertParams, SlideGraspExpert
+from agents.expert import SlideGraspExpert
+from agents.params import EXPERT_SLIDE_PARAMS, ExpertParams
 from agents.scene import SceneLibrary
 from slide_gym.geometry import ObjectShape, TableShape
 from slide_gym.planning.api import PLANNERS, SlideParams

@@ -103,6 +103,15 @@ def test_expert_lifts_the_object_end_to_end(e_episode):
     assert r["slide_error_m"] is not None and r["slide_error_m"] < 0.05
 
 
+@pytest.mark.parametrize(
+    ("obj", "table", "seed"), [("square", "long", 1), ("irregular", "round", 0), ("Y", "square", 0)]
+)
+def test_expert_lifts_other_shapes_on_other_tables(obj, table, seed):
+    r = run_episode(obj, table, seed=seed)
+    assert r["success"], r["events"]
+    assert r["object"] == obj and r["table"] == table and r["steps"] <= 1200
+
+
 def test_expert_episode_is_deterministic(e_episode):
     again = run_episode("E", "square", seed=0)
     for key in ("success", "steps", "object_final_pose", "slide_error_m", "replans"):

@@ -1,0 +1,68 @@
+"""The expert's settings: planner parameters with margins for the real slide, and execution
+speeds, heights and feedback gains."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+from slide_gym.planning.api import GraspParams, SlideParams
+
+EXPERT_SLIDE_PARAMS = SlideParams(
+    dz=(0.012, 0.02),
+    press_radius=0.015,
+    press_edge_margin=0.008,
+    u_star=0.04,
+    centroid_margin=0.015,
+    max_rotation=0.8,
+    grasp=GraspParams(retreat=0.06),
+)
+"""Planner settings the expert uses by default, with margins for the real slide:
+
+- contact depth 1.2-2.0 cm: shallower presses let the fingertip slip over the plate, deeper
+  ones bring finger B within millimetres of the plate top;
+- press points at least 8 mm inside the plate's outline (a rounded tip slips off an edge),
+  and of those, the ones within 1.5 cm of the one nearest the plate's centroid (the plate
+  then hardly spins about the tip);
+- a planned overhang of 4 cm (1 cm more than the task's u*) with the centroid at least
+  1.5 cm inside the edge;
+- at most 0.8 rad of plate rotation: in larger turns the plate slips about the fingertip;
+- the grasp approached from a stand-off 6 cm out, clear of the plate's corners."""
+
+
+@dataclass(frozen=True)
+class ExpertParams:
+    """Execution speeds, heights and gains (SI units)."""
+
+    approach_speed: float = 1.0  # rad/s, free-space joint speed
+    pre_contact_height: float = 0.05  # m above the press point before pressing
+    press_speed: float = 0.02  # m/s fingertip speed while pressing
+    press_hold_s: float = 0.3
+    slide_speed: float = 0.03  # m/s fingertip speed along the slide
+    transfer_speed: float = 0.6  # rad/s
+    transfer_tip_speed: float = 0.1  # m/s of the grasp frame during the transfer
+    lift_off_height: float = 0.06  # m the fingertip rises off the plate after the slide
+    grasp_budget: float = 1.0  # s to re-aim the grasp at the measured pose
+    settle_s: float = 0.5  # s at the stand-off pose: the arm settles before the approach
+    grasp_speed: float = 0.04  # m/s on the final approach to the grasp
+    close_s: float = 0.8  # hand closing time before lifting
+    lift: float = 0.12  # m the grasp frame rises
+    lift_speed: float = 0.05  # m/s
+    tip_gain: float = 0.3  # per control step, integral gain of the fingertip loop
+    object_gain: float = 0.02  # per control step, integral gain of the plate-pose loop
+    max_object_correction: float = 0.03  # m
+    slide_settle_s: float = 0.5  # s at the slide's end: the plate comes to rest, still pressed
+    contact_deflection: float = 0.05  # rad of finger A's proximal joint: it is pressing
+    max_correction: float = 0.04  # m, largest Cartesian correction of the fingertip
+    max_replans: int = 2
+    pull_back_margin: float = 0.012  # m: a slid plate's centroid closer to the edge is pulled back
+    grasp_u_star: float = 0.032  # m, least real overhang to go for the grasp (task: 0.03)
+
+    def __post_init__(self) -> None:
+        for name, value in dataclasses.asdict(self).items():
+            if name == "max_replans":
+                if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+                    raise ValueError(f"max_replans must be an integer >= 0, got {value!r}")
+            elif not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ValueError(f"ExpertParams.{name} must be a finite positive number: {value}")

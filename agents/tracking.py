@@ -1,0 +1,85 @@
+"""Feedback and motion helpers of the expert: the contact loops, straight Cartesian moves, and
+pose arithmetic on observations."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from agents.params import ExpertParams
+from slide_gym.planning.api import IKParams, IKTarget, solve_ik
+from slide_gym.planning.kin import FastChain
+
+_LOCAL_IK = IKParams(n_restarts=1)  # the seed only: no jump to another IK branch
+LINE_STEP = 0.01  # m between the IK waypoints of a straight Cartesian move
+_LINE_MAX_JOINT_STEP = 0.3  # rad: a larger change between waypoints means a branch switch
+
+
+def quat_yaw(quat: np.ndarray) -> float:
+    """Yaw (rad) of an xyzw quaternion."""
+    x, y, z, w = (float(v) for v in quat)
+    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+
+
+def wrap_angle(a: float) -> float:
+    """``a`` wrapped to [-pi, pi)."""
+    return (a + math.pi) % (2 * math.pi) - math.pi
+
+
+def cartesian_line(
+    chain: FastChain, q0: np.ndarray, offset: np.ndarray, rng: np.random.Generator
+) -> np.ndarray | None:
+    """Joint waypoints that move ``chain``'s frame by ``offset`` (world, m) along a straight
+    line, orientation kept; None if that leaves the reachable set.
+
+    Each IK starts from the previous waypoint only, so the arm stays on one IK branch (a
+    joint-space move between branches can sweep the hand through the scene).
+    """
+    start = chain.forward(q0)
+    n = max(1, math.ceil(float(np.linalg.norm(offset)) / LINE_STEP))
+    path = [np.asarray(q0, dtype=float)]
+    for k in range(1, n + 1):
+        target = IKTarget(start[:3, 3] + offset * k / n, start[:3, :3])
+        q = solve_ik(chain, target, rng, path[-1][None], _LOCAL_IK)
+        if q is None or np.abs(q - path[-1]).max() > _LINE_MAX_JOINT_STEP:
+            return None
+        path.append(q)
+    return np.array(path)
+
+
+class ContactTracker:
+    """Two integral loops that keep a pressed fingertip where the plan wants it (xy only).
+
+    The inner loop moves the real fingertip onto the planned one: the compliant finger swings
+    sideways as it is pressed. While sliding, a slower outer loop shifts that target by the
+    plate's lag behind its Eq. 2 pose (the tip creeps a little over the plate as it drags it).
+    """
+
+    def __init__(self, chain: FastChain, params: ExpertParams):
+        self.chain, self.params = chain, params
+        self.correction = np.zeros(2)
+        self.object_offset = np.zeros(2)
+
+    def reset(self) -> None:
+        """Forget both corrections (they are part of the arm command from now on)."""
+        self.correction[:] = 0.0
+        self.object_offset[:] = 0.0
+
+    def joint_offset(
+        self, q_plan: np.ndarray, object_xy: np.ndarray | None, obs: dict[str, np.ndarray]
+    ) -> np.ndarray:
+        """Joint offset to add to ``q_plan`` this step; ``object_xy``: the plate's Eq. 2 xy."""
+        p = self.params
+        t, jac = self.chain.jacobian(q_plan)
+        pressing = float(obs["finger_qpos"][0]) > p.contact_deflection
+        if object_xy is not None and pressing:
+            lag = object_xy - np.asarray(obs["object_pose"][:2], dtype=float)
+            limit = p.max_object_correction
+            self.object_offset = np.clip(self.object_offset + p.object_gain * lag, -limit, limit)
+        setpoint = t[:2, 3] + self.object_offset
+        error = setpoint - np.asarray(obs["fingertip_pose"][:2], dtype=float)
+        limit = p.max_correction
+        self.correction = np.clip(self.correction + p.tip_gain * error, -limit, limit)
+        twist = np.r_[self.correction + self.object_offset, 0.0, 0.0, 0.0, 0.0]
+        return jac.T @ np.linalg.solve(jac @ jac.T + 1e-4 * np.eye(6), twist)

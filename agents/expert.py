@@ -13,8 +13,10 @@ stand-off outside the table edge), ``approach_grasp``, ``close``, ``lift``. A pl
 ungraspable is re-planned from where it lies, within the total planning budget. While the
 fingertip is pressed, :class:`~agents.tracking.ContactTracker` corrects the planned targets.
 """
+
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections import deque
 from dataclasses import dataclass
@@ -23,7 +25,7 @@ from typing import Any
 import numpy as np
 import shapely
 
-from agents.params import ExpertParams
+from agents.params import ExpertParams, relaxed_slide_params
 from agents.scene import SceneLibrary
 from agents.tracking import ContactTracker, cartesian_line, quat_yaw, wrap_angle
 from agents.trajectory import Segment, time_segment
@@ -159,29 +161,46 @@ class SlideGraspExpert:
         pose = obs["object_pose"]
         return np.array([float(pose[0]), float(pose[1]), quat_yaw(pose[3:7])])
 
+    def _slide_params(self) -> list[tuple[str, SlideParams]]:
+        """The planner settings to try in turn: the margins this plate leaves room for (a
+        small plate cannot overhang by u* and keep its centroid far inside the edge), then
+        relaxed ones."""
+        assert self.obj is not None
+        sp = self.slide_params
+        room = 0.8 * (self.obj.circumradius - sp.u_star)
+        margin = min(sp.centroid_margin, max(self.params.min_centroid_margin, room))
+        strict = dataclasses.replace(sp, centroid_margin=margin)
+        return [("strict", strict), ("relaxed", relaxed_slide_params(strict))]
+
     def _plan(self, obs: dict[str, np.ndarray]) -> None:
         assert self.obj is not None and self.table is not None and self.q_cmd is not None
-        budget = self.time_budget - self.report["planning_time_s"]
-        if budget <= 0.05:
-            return self._fail("planning budget used up")
         pose = self._object_pose(obs)
         replan = self.report["replans"] > 0
-        try:
-            problem = TopSlideProblem(
-                self.obj, self.table, pose, self.slide_params, allow_overhang=replan
-            )
-        except ValueError as exc:
-            return self._fail(f"cannot plan from the object's pose: {exc}")
-        if self.planner is not None:
-            self.planner.close()
-        key = [self.seed, self.report["replans"], *(np.round(pose * 1e4).astype(np.int64) % 2**32)]
-        rng = np.random.default_rng(np.random.SeedSequence(key))
-        self.planner = TopSlidePlanner(problem, self.planner_name, rng)
-        t0 = time.perf_counter()
-        result = self.planner.solve(budget)
-        self.report["planning_time_s"] += time.perf_counter() - t0
-        self.report["plan_status"] = result.status.value
-        if not result.solved:
+        attempts = self._slide_params()
+        for k, (name, params) in enumerate(attempts):
+            budget = self.time_budget - self.report["planning_time_s"]
+            if budget <= 0.05:
+                return self._fail("planning budget used up")
+            if k < len(attempts) - 1:
+                budget *= self.params.strict_plan_share
+            try:
+                problem = TopSlideProblem(self.obj, self.table, pose, params, allow_overhang=replan)
+            except ValueError as exc:
+                return self._fail(f"cannot plan from the object's pose: {exc}")
+            if self.planner is not None:
+                self.planner.close()
+            key = [self.seed, self.report["replans"], k]
+            key += list(np.round(pose * 1e4).astype(np.int64) % 2**32)
+            rng = np.random.default_rng(np.random.SeedSequence(key))
+            self.planner = TopSlidePlanner(problem, self.planner_name, rng)
+            t0 = time.perf_counter()
+            result = self.planner.solve(budget)
+            self.report["planning_time_s"] += time.perf_counter() - t0
+            self.report["plan_status"] = result.status.value
+            if result.solved:
+                break
+            self.report["events"].append(f"{name} plan: {result.status.value}: {result.reason}")
+        else:
             return self._fail(f"planner: {result.reason}")
         self.report["planned"] = True
         self.object_start = pose
@@ -271,7 +290,10 @@ class SlideGraspExpert:
         """Raise the fingertip off the plate, still holding its xy (the finger unloads)."""
         assert self.q_cmd is not None
         q_end = self.q_slide_end  # the nominal (uncorrected) end of the slide
-        line = self._cartesian(self.tip, q_end, np.array([0.0, 0.0, self.params.lift_off_height]))
+        rise = np.array([0.0, 0.0, self.params.lift_off_height])
+        line = self._cartesian(self.tip, q_end, rise)
+        if line is None:  # near a joint limit: half the height still unloads the finger
+            line = self._cartesian(self.tip, q_end, rise / 2)
         if line is None:
             return self._fail("no IK solution to lift the fingertip off the plate")
         self._push(Segment("lift_off", line, 1.0, self.params.press_speed), self.tip, track=True)

@@ -57,6 +57,8 @@ class ExpertParams:
     max_correction: float = 0.04  # m, largest Cartesian correction of the fingertip
     max_replans: int = 2
     pull_back_margin: float = 0.012  # m: a slid plate's centroid closer to the edge is pulled back
+    strict_plan_share: float = 0.5  # of the remaining budget, for the plan with full margins
+    min_centroid_margin: float = 0.005  # m, for plates too small for the full margin
     grasp_u_star: float = 0.032  # m, least real overhang to go for the grasp (task: 0.03)
 
     def __post_init__(self) -> None:
@@ -66,3 +68,16 @@ class ExpertParams:
                     raise ValueError(f"max_replans must be an integer >= 0, got {value!r}")
             elif not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ValueError(f"ExpertParams.{name} must be a finite positive number: {value}")
+
+
+def relaxed_slide_params(params: SlideParams) -> SlideParams:
+    """Settings for when no plan with the full margins comes in time: any plate turn up to
+    1.6 rad, press points up to 3 cm from the centroid, a planned overhang of 3.5 cm with
+    the centroid 0.5 cm inside the edge."""
+    return dataclasses.replace(
+        params,
+        max_rotation=max(params.max_rotation, 1.6),
+        press_radius=None if params.press_radius is None else max(params.press_radius, 0.03),
+        u_star=min(params.u_star, 0.035),
+        centroid_margin=min(params.centroid_margin, 0.005),
+    )

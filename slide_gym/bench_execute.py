@@ -10,8 +10,6 @@ from typing import Any
 
 import numpy as np
 
-PLANNERS = ("regions", "cbirrt", "cbirrt2")
-
 
 def _run_episode() -> Callable[..., dict[str, Any]]:
     """``agents.episode.run_episode``, imported on use."""
@@ -71,6 +69,7 @@ def bench_execute(
     from slide_gym.geometry import get_object, get_table
     from slide_gym.jobs import case_key, run_cases
     from slide_gym.planning.result import check_time_budget
+    from slide_gym.planning.top_slide import PLANNERS
 
     time_budget = check_time_budget(time_budget)
     if trials < 1:

@@ -10,7 +10,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-PLANNERS = ("regions", "cbirrt", "cbirrt2")
+PLANNERS = ("regions", "cbirrt", "cbirrt2")  # planning.PLANNERS, without importing it
 PLAN_BENCH_OBJECTS = "square,circle,triangle,crescent,irregular"
 
 

@@ -222,8 +222,13 @@ class SlideGraspExpert:
         p, planner = self.params, self.planner
         assert planner is not None and self.q_cmd is not None
         down = self._cartesian(self.tip, q_s, np.array([0.0, 0.0, p.pre_contact_height]))
-        if down is None:
-            return self._fail("no IK solution above the press point")
+        if down is None:  # near a joint limit: any IK branch above the press point
+            above = self.tip.forward(q_s)
+            above[2, 3] += p.pre_contact_height
+            q_above = self._ik(self.tip, above, q_s)
+            if q_above is None:
+                return self._fail("no IK solution above the press point")
+            down = np.array([q_s, q_above])
         down = down[::-1]  # from above the press point straight down to it
         q_pre = down[0]
         high = self.tip.forward(q_pre)

@@ -36,12 +36,12 @@ class ExpertParams:
     """Execution speeds, heights and gains (SI units)."""
 
     approach_speed: float = 1.0  # rad/s, free-space joint speed
-    pre_contact_height: float = 0.05  # m above the press point before pressing
+    pre_contact_height: float = 0.03  # m above the press point before pressing
     press_speed: float = 0.02  # m/s fingertip speed while pressing
     press_hold_s: float = 0.3
     slide_speed: float = 0.03  # m/s fingertip speed along the slide
     transfer_speed: float = 0.6  # rad/s
-    transfer_tip_speed: float = 0.1  # m/s of the grasp frame during the transfer
+    transfer_tip_speed: float = 0.25  # m/s of the grasp frame during the transfer
     lift_off_height: float = 0.06  # m the fingertip rises off the plate after the slide
     grasp_budget: float = 1.0  # s to re-aim the grasp at the measured pose
     settle_s: float = 0.5  # s at the stand-off pose: the arm settles before the approach

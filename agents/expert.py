@@ -27,9 +27,16 @@ import shapely
 
 from agents.params import ExpertParams, relaxed_slide_params
 from agents.scene import SceneLibrary
-from agents.tracking import ContactTracker, cartesian_line, quat_yaw, wrap_angle
+from agents.tracking import ContactTracker, cartesian_line
 from agents.trajectory import Segment, time_segment
-from slide_gym.geometry import ObjectShape, TableShape, overhang, transform_polygon
+from slide_gym.geometry import (
+    ObjectShape,
+    TableShape,
+    overhang,
+    quat_yaw,
+    transform_polygon,
+    wrap_angle,
+)
 from slide_gym.planning.api import (
     IKTarget,
     SlideParams,
@@ -218,17 +225,29 @@ class SlideGraspExpert:
     def _cartesian(self, chain: FastChain, q0: np.ndarray, offset: np.ndarray):
         return cartesian_line(chain, q0, offset, self.rng)
 
+    def _rise(
+        self, chain: FastChain, q0: np.ndarray, heights: tuple[float, ...], any_branch: bool
+    ) -> np.ndarray | None:
+        """Waypoints raising ``chain``'s frame straight up by the first of ``heights`` that stays
+        on one IK branch; with ``any_branch``, else a joint-space move to any IK solution at the
+        first height (near a joint limit)."""
+        for height in heights:
+            line = self._cartesian(chain, q0, np.array([0.0, 0.0, height]))
+            if line is not None:
+                return line
+        if not any_branch:
+            return None
+        up = chain.forward(q0)
+        up[2, 3] += heights[0]
+        q_up = self._ik(chain, up, q0)
+        return None if q_up is None else np.array([q0, q_up])
+
     def _queue_press_and_slide(self, q_s: np.ndarray, path: np.ndarray, pose: np.ndarray) -> None:
         p, planner = self.params, self.planner
         assert planner is not None and self.q_cmd is not None
-        down = self._cartesian(self.tip, q_s, np.array([0.0, 0.0, p.pre_contact_height]))
-        if down is None:  # near a joint limit: any IK branch above the press point
-            above = self.tip.forward(q_s)
-            above[2, 3] += p.pre_contact_height
-            q_above = self._ik(self.tip, above, q_s)
-            if q_above is None:
-                return self._fail("no IK solution above the press point")
-            down = np.array([q_s, q_above])
+        down = self._rise(self.tip, q_s, (p.pre_contact_height,), any_branch=True)
+        if down is None:
+            return self._fail("no IK solution above the press point")
         down = down[::-1]  # from above the press point straight down to it
         q_pre = down[0]
         high = self.tip.forward(q_pre)
@@ -295,10 +314,8 @@ class SlideGraspExpert:
         """Raise the fingertip off the plate, still holding its xy (the finger unloads)."""
         assert self.q_cmd is not None
         q_end = self.q_slide_end  # the nominal (uncorrected) end of the slide
-        rise = np.array([0.0, 0.0, self.params.lift_off_height])
-        line = self._cartesian(self.tip, q_end, rise)
-        if line is None:  # near a joint limit: half the height still unloads the finger
-            line = self._cartesian(self.tip, q_end, rise / 2)
+        h = self.params.lift_off_height  # near a joint limit, half of it still unloads the finger
+        line = self._rise(self.tip, q_end, (h, h / 2), any_branch=False)
         if line is None:
             return self._fail("no IK solution to lift the fingertip off the plate")
         self._push(Segment("lift_off", line, 1.0, self.params.press_speed), self.tip, track=True)
@@ -337,18 +354,10 @@ class SlideGraspExpert:
         p = self.params
         assert self.q_cmd is not None
         q_grasp = transfer[-1]
-        lift_path = None
-        for height in (p.lift, 0.75 * p.lift, 0.5 * p.lift):  # near the edge of the workspace
-            lift_path = self._cartesian(self.hand, q_grasp, np.array([0.0, 0.0, height]))
-            if lift_path is not None:
-                break
-        if lift_path is None:  # blocked by a joint limit: any IK branch, a joint-space move
-            up = self.hand.forward(q_grasp)
-            up[2, 3] += p.lift
-            q_up = self._ik(self.hand, up, q_grasp)
-            if q_up is None:
-                return self._fail("no IK solution for lifting the grasped object")
-            lift_path = np.array([q_grasp, q_up])
+        heights = (p.lift, 0.75 * p.lift, 0.5 * p.lift)  # lower near the edge of the workspace
+        lift_path = self._rise(self.hand, q_grasp, heights, any_branch=True)
+        if lift_path is None:
+            return self._fail("no IK solution for lifting the grasped object")
         route = np.vstack([self.q_cmd, transfer[1:-1]])
         transfer_leg = Segment(
             "transfer", route, p.transfer_speed, p.transfer_tip_speed, hold_s=p.settle_s

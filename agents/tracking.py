@@ -16,17 +16,6 @@ LINE_STEP = 0.01  # m between the IK waypoints of a straight Cartesian move
 _LINE_MAX_JOINT_STEP = 0.3  # rad: a larger change between waypoints means a branch switch
 
 
-def quat_yaw(quat: np.ndarray) -> float:
-    """Yaw (rad) of an xyzw quaternion."""
-    x, y, z, w = (float(v) for v in quat)
-    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-
-
-def wrap_angle(a: float) -> float:
-    """``a`` wrapped to [-pi, pi)."""
-    return (a + math.pi) % (2 * math.pi) - math.pi
-
-
 def cartesian_line(
     chain: FastChain, q0: np.ndarray, offset: np.ndarray, rng: np.random.Generator
 ) -> np.ndarray | None:

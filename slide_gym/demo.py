@@ -16,16 +16,11 @@ import numpy as np
 from shapely.geometry import Point
 
 from slide_gym.envs.top_slide import TopSlideEnv
-from slide_gym.geometry import transform_points
+from slide_gym.geometry import quat_yaw, transform_points
 from slide_gym.kinematics import robot_chain
 
 PITCH = np.deg2rad(60.0)
 """Angle between the finger axis (Z_F) and the table during the press."""
-
-
-def _yaw_of(quat: np.ndarray) -> float:
-    x, y, z, w = quat
-    return float(np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)))
 
 
 class ScriptedSlider:
@@ -50,7 +45,7 @@ class ScriptedSlider:
         task = self.env.task
         obj, table = task.object, task.table
         pose = obs["object_pose"]
-        x, y, yaw = float(pose[0]), float(pose[1]), _yaw_of(pose[3:])
+        x, y, yaw = float(pose[0]), float(pose[1]), quat_yaw(pose[3:])
         cloud = obj.top_surface_points(0.01)[:, :2]
         contact_local = cloud[np.argmin(np.linalg.norm(cloud, axis=1))]
         self.contact = transform_points(contact_local[None], x, y, yaw)[0]

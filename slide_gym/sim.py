@@ -50,8 +50,8 @@ class PhysicsParams:
     """Physics engine settings (SI units)."""
 
     timestep: float = 1.0 / 240.0
-    # At PyBullet's default 50 iterations the pressed fingertip creeps over the plate while
-    # dragging it (about 14 cm over a 30 cm slide, measured); at 100 it sticks (< 1 cm).
+    # At PyBullet's default 50 iterations the friction solve does not converge: the pressed
+    # fingertip creeps over the plate while dragging it, and expert slides lose the plate.
     solver_iterations: int = 100
     gravity: float = -9.81
 

@@ -15,6 +15,7 @@ from slide_gym.geometry import (
     ObjectShape,
     TableShape,
     overhang,
+    quat_yaw,
     transform_points,
     transform_polygon,
 )
@@ -193,11 +194,7 @@ class TopSlideTask:
     ) -> SceneState:
         assert self.object is not None and self.table is not None
         pos, quat = self.object_pose(sim)
-        yaw = float(
-            np.arctan2(
-                2 * (quat[3] * quat[2] + quat[0] * quat[1]), 1 - 2 * (quat[1] ** 2 + quat[2] ** 2)
-            )
-        )
+        yaw = quat_yaw(quat)
         u, centroid_inside, graspable = self._placement(float(pos[0]), float(pos[1]), yaw)
         lin, ang = sim.base_velocity("object")
         contacts = sim.contact_points("object", "robot")

@@ -23,8 +23,10 @@ from slide_gym.geometry.polygons import (
     outline_descriptor,
     overhang,
     point_cloud,
+    quat_yaw,
     transform_points,
     transform_polygon,
+    wrap_angle,
 )
 from slide_gym.geometry.shapes import (
     DEFAULT_DENSITY,
@@ -58,6 +60,8 @@ __all__ = [
     "outline_descriptor",
     "overhang",
     "point_cloud",
+    "quat_yaw",
     "transform_points",
+    "wrap_angle",
     "transform_polygon",
 ]

@@ -14,6 +14,7 @@ Conventions (public contract):
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
@@ -94,6 +95,17 @@ def make_polygon(
 def _rotation(yaw: float) -> np.ndarray:
     c, s = np.cos(yaw), np.sin(yaw)
     return np.array([[c, -s], [s, c]])
+
+
+def quat_yaw(quat: np.ndarray) -> float:
+    """Yaw (rad) of an xyzw quaternion: the heading of a body lying flat."""
+    x, y, z, w = (float(v) for v in quat)
+    return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+
+
+def wrap_angle(a: float) -> float:
+    """``a`` wrapped to [-pi, pi)."""
+    return (a + math.pi) % (2 * math.pi) - math.pi
 
 
 def transform_points(points: np.ndarray, x: float, y: float, yaw: float) -> np.ndarray:

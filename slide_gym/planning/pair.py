@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 import shapely
 
-from slide_gym.geometry import ObjectShape, TableShape, overhang, transform_polygon
+from slide_gym.geometry import ObjectShape, TableShape, overhang, transform_polygon, wrap_angle
 from slide_gym.planning.collision import CollisionChecker
 from slide_gym.planning.constraints import planar_pose
 from slide_gym.planning.ik import (
@@ -154,7 +154,7 @@ class PairValidator:
 
     def __call__(self, q_s: np.ndarray, q_g: np.ndarray) -> tuple[bool, dict[str, Any]]:
         goal = self.object_goal(q_s, q_g)
-        turn = abs((goal[2] - self.object_start[2] + math.pi) % (2 * math.pi) - math.pi)
+        turn = abs(wrap_angle(goal[2] - self.object_start[2]))
         if turn > self.max_rotation:
             self.counts["rotation"] += 1
             reason = f"the plate would turn {turn:.2f} rad > {self.max_rotation:.2f}"

@@ -98,4 +98,3 @@ def test_plate_turn_limit_holds_in_solutions():
     assert result.solved
     turn = result.extra["object_goal_pose"][2] - 0.3
     assert abs((turn + math.pi) % (2 * math.pi) - math.pi) <= 0.3 + 1e-9
-    assert result.extra["validator_counts"]["rotation"] >= 0

@@ -69,7 +69,7 @@ def bench_execute(
     from slide_gym.geometry import get_object, get_table
     from slide_gym.jobs import case_key, run_cases
     from slide_gym.planning.result import check_time_budget
-    from slide_gym.planning.top_slide import PLANNERS
+    from slide_gym.planning.search import PLANNERS
 
     time_budget = check_time_budget(time_budget)
     if trials < 1:

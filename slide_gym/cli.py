@@ -10,7 +10,8 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-PLANNERS = ("regions", "cbirrt", "cbirrt2")  # planning.PLANNERS, without importing it
+from slide_gym.planning.search import PLANNERS
+
 PLAN_BENCH_OBJECTS = "square,circle,triangle,crescent,irregular"
 
 

@@ -225,10 +225,3 @@ def test_bench_execute_rejects_bad_input(
     assert main(["bench", "execute", "--trials", "0", "--out", out]) == 2
     assert main(["bench", "execute", "--time-budget", "0", "--out", out]) == 2
     assert fake.calls == []
-
-
-def test_cli_planner_names_match_the_planning_package():
-    from slide_gym import cli
-    from slide_gym.planning.top_slide import PLANNERS
-
-    assert cli.PLANNERS == PLANNERS

@@ -181,6 +181,11 @@ class TopSlideEnv(gym.Env):
         self._flat_low = np.concatenate([self.observation_space[k].low for k in _FLAT_KEYS])
         self._flat_high = np.concatenate([self.observation_space[k].high for k in _FLAT_KEYS])
 
+    @property
+    def dt(self) -> float:
+        """Seconds of simulated time per :meth:`step` (physics timestep x substeps)."""
+        return self.n_substeps * self.sim.physics.timestep
+
     # ------------------------------------------------------------------ set-up
     @staticmethod
     def _resolve(kind: str, spec: Any, names: tuple[str, ...], load: Any) -> Any:

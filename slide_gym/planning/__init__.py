@@ -17,7 +17,7 @@ from slide_gym.planning.result import (
     timed,
 )
 from slide_gym.planning.search import (
-    PLANNER_KINDS,
+    PLANNERS,
     DensifyError,
     ForestConnectPlanner,
     SearchFunctions,
@@ -29,7 +29,7 @@ from slide_gym.planning.search import (
 )
 
 __all__ = [
-    "PLANNER_KINDS",
+    "PLANNERS",
     "DensifyError",
     "Forest",
     "ForestConnectPlanner",

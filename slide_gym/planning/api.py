@@ -23,7 +23,8 @@ from slide_gym.planning.pair import GraspParams, PairValidator, grasp_poses
 from slide_gym.planning.params import SlideParams
 from slide_gym.planning.regions import GoalRegion, StartRegion, goal_band, nominal_seed
 from slide_gym.planning.se2 import se2_compose, se2_inverse, slid_object_pose
-from slide_gym.planning.top_slide import PLANNERS, TopSlidePlanner, TopSlideProblem
+from slide_gym.planning.search import PLANNERS
+from slide_gym.planning.top_slide import TopSlidePlanner, TopSlideProblem
 
 __all__ = [
     "MODES",

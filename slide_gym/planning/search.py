@@ -27,7 +27,8 @@ from slide_gym.planning.result import (
 
 Config = np.ndarray
 RootSampler = Callable[[np.random.Generator], np.ndarray | None]
-PLANNER_KINDS: tuple[str, ...] = ("regions", "cbirrt2", "cbirrt")
+PLANNERS: tuple[str, ...] = ("regions", "cbirrt2", "cbirrt")
+"""The planner names: the paper's planner and the two baselines (one list for the whole project)."""
 _SIDES = ("start", "goal")
 # A projection that lands this many steps away from its parent has most likely jumped to
 # another part of the manifold; such an edge would not be a valid local motion.
@@ -249,7 +250,7 @@ def forest_connect_search(
 
 
 class ForestConnectPlanner(Planner):
-    """One of ``PLANNER_KINDS`` as a configuration of :func:`forest_connect_search`.
+    """One of ``PLANNERS`` as a configuration of :func:`forest_connect_search`.
 
     * ``regions``: both forests sample roots (``start``/``goal`` are optional extra roots).
     * ``cbirrt2``: one start root (``start``, else sampled once); goal roots sampled.
@@ -266,8 +267,8 @@ class ForestConnectPlanner(Planner):
         start: Config | None = None,
         goal: Config | None = None,
     ):
-        if kind not in PLANNER_KINDS:
-            raise ValueError(f"kind must be one of {PLANNER_KINDS}, got {kind!r}")
+        if kind not in PLANNERS:
+            raise ValueError(f"kind must be one of {PLANNERS}, got {kind!r}")
         if not isinstance(rng, np.random.Generator):
             raise TypeError("rng must be a numpy.random.Generator (np.random.default_rng(seed))")
         single = {"regions": (False, False), "cbirrt2": (True, False), "cbirrt": (True, True)}

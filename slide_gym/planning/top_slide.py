@@ -24,6 +24,7 @@ from slide_gym.planning.params import SlideParams
 from slide_gym.planning.regions import GoalRegion, StartRegion, goal_band
 from slide_gym.planning.result import Planner, PlannerStats, PlanResult, PlanStatus, SearchParams
 from slide_gym.planning.search import (
+    PLANNERS,
     DensifyError,
     SearchFunctions,
     densify,
@@ -108,9 +109,6 @@ class TopSlideProblem:
         }
 
 
-PLANNERS: tuple[str, ...] = ("regions", "cbirrt", "cbirrt2")
-
-
 class _OutOfTime(Exception):
     """Densifying the found path would overrun the budget."""
 
@@ -144,7 +142,7 @@ class TopSlidePlanner(Planner):
         seed: int | Sequence[int] | np.random.Generator | None = None,
     ):
         if planner not in PLANNERS:
-            raise ValueError(f"planner must be one of {PLANNERS}, got {planner!r}")
+            raise ValueError(f"planner must be one of {', '.join(PLANNERS)}, got {planner!r}")
         self.problem = problem
         self.name = planner
         self.seed = seed if not isinstance(seed, np.random.Generator) else None

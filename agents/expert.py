@@ -20,12 +20,12 @@ import dataclasses
 import time
 from collections import deque
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 import shapely
 
 from agents.params import ExpertParams, relaxed_slide_params
+from agents.record import ExpertReport
 from agents.scene import SceneLibrary
 from agents.tracking import ContactTracker, cartesian_line
 from agents.trajectory import Segment, time_segment
@@ -42,13 +42,11 @@ from slide_gym.planning.api import (
     SlideParams,
     TopSlidePlanner,
     TopSlideProblem,
-    fingertip_chain,
-    grasp_chain,
     planar_pose,
     slid_object_pose,
     solve_ik,
 )
-from slide_gym.planning.kin import FastChain
+from slide_gym.robot.kinematics import FastChain, fingertip_chain, grasp_chain
 from slide_gym.robot.model import ARM_LOWER, ARM_UPPER
 
 
@@ -99,18 +97,7 @@ class SlideGraspExpert:
         self.obj: ObjectShape | None = None
         self.table: TableShape | None = None
         self.rng = np.random.default_rng(self.seed)
-        self.report: dict[str, Any] = {
-            "planned": False,
-            "replans": 0,
-            "planning_time_s": 0.0,
-            "plan_status": None,
-            "failure": None,
-            "object_predicted_pose": None,
-            "object_slid_pose": None,
-            "slide_error_m": None,
-            "slide_error_rad": None,
-            "events": [],
-        }
+        self.report = ExpertReport()
 
     # ------------------------------------------------------------------ act
     def act(self, obs: dict[str, np.ndarray]) -> np.ndarray:
@@ -157,7 +144,7 @@ class SlideGraspExpert:
             self._fail(f"nothing follows phase {self.phase!r}")
 
     def _fail(self, why: str) -> None:
-        self.report["failure"] = why
+        self.report.failure = why
         self.phase = "failed"
         self.queue.clear()
         if self.planner is not None:
@@ -182,10 +169,10 @@ class SlideGraspExpert:
     def _plan(self, obs: dict[str, np.ndarray]) -> None:
         assert self.obj is not None and self.table is not None and self.q_cmd is not None
         pose = self._object_pose(obs)
-        replan = self.report["replans"] > 0
+        replan = self.report.replans > 0
         attempts = self._slide_params()
         for k, (name, params) in enumerate(attempts):
-            budget = self.time_budget - self.report["planning_time_s"]
+            budget = self.time_budget - self.report.planning_time_s
             if budget <= 0.05:
                 return self._fail("planning budget used up")
             if k < len(attempts) - 1:
@@ -196,27 +183,27 @@ class SlideGraspExpert:
                 return self._fail(f"cannot plan from the object's pose: {exc}")
             if self.planner is not None:
                 self.planner.close()
-            key = [self.seed, self.report["replans"], k]
+            key = [self.seed, self.report.replans, k]
             key += list(np.round(pose * 1e4).astype(np.int64) % 2**32)
             rng = np.random.default_rng(np.random.SeedSequence(key))
             self.planner = TopSlidePlanner(problem, self.planner_name, rng)
             t0 = time.perf_counter()
             result = self.planner.solve(budget)
-            self.report["planning_time_s"] += time.perf_counter() - t0
-            self.report["plan_status"] = result.status.value
+            self.report.planning_time_s += time.perf_counter() - t0
+            self.report.plan_status = result.status.value
             if result.solved:
                 break
-            self.report["events"].append(f"{name} plan: {result.status.value}: {result.reason}")
+            self.report.events.append(f"{name} plan: {result.status.value}: {result.reason}")
         else:
             return self._fail(f"planner: {result.reason}")
-        self.report["planned"] = True
+        self.report.planned = True
         self.object_start = pose
         self.result = result
         gamma_s, gamma_g = planar_pose(
             self.tip.forward(np.stack([result.start_config, result.goal_config]))
         )
         self.predicted = slid_object_pose(gamma_s, gamma_g, pose)
-        self.report["object_predicted_pose"] = self.predicted.tolist()
+        self.report.object_predicted_pose = self.predicted.tolist()
         self._queue_press_and_slide(result.start_config, result.path, pose)
 
     def _ik(self, chain: FastChain, t: np.ndarray, seed: np.ndarray) -> np.ndarray | None:
@@ -253,25 +240,10 @@ class SlideGraspExpert:
         high = self.tip.forward(q_pre)
         high[2, 3] += 0.15
         q_high = self._ik(self.tip, high, q_pre)
-        checker = planner.checker
-        checker.place_object(pose)
         routes = [[self.q_cmd, q_pre]] + (
             [[self.q_cmd, q_high, q_pre]] if q_high is not None else []
         )
-        try:
-            route = next(
-                (
-                    r
-                    for r in routes
-                    if all(
-                        checker.segment_free(a, b, "full", 0.02)
-                        for a, b in zip(r[:-1], r[1:], strict=True)
-                    )
-                ),
-                routes[-1],
-            )
-        finally:
-            checker.place_object(None)
+        route = next((r for r in routes if planner.route_free(r, pose)), routes[-1])
         self._push(Segment("approach", np.array(route), p.approach_speed), self.tip)
         press = Segment("press", down, 1.0, p.press_speed, hold_s=p.press_hold_s)
         self._push(press, self.tip, track=True)
@@ -306,7 +278,7 @@ class SlideGraspExpert:
         line = self._cartesian(self.tip, self.q_slide_end, shift)
         if line is None:
             return self._lift_off()
-        self.report["events"].append(f"centroid {depth:.3f} m inside the edge: pulled back")
+        self.report.events.append(f"centroid {depth:.3f} m inside the edge: pulled back")
         self._push(Segment("pull_back", line, 1.0, self.params.press_speed), self.tip, track=True)
         self.q_slide_end = line[-1]
 
@@ -325,29 +297,27 @@ class SlideGraspExpert:
         assert self.planner is not None and self.q_cmd is not None
         assert self.obj is not None and self.table is not None
         actual = self._object_pose(obs)
-        self.report["object_slid_pose"] = actual.tolist()
-        self.report["slide_error_m"] = float(np.linalg.norm(actual[:2] - self.predicted[:2]))
-        self.report["slide_error_rad"] = abs(wrap_angle(actual[2] - self.predicted[2]))
+        self.report.object_slid_pose = actual.tolist()
+        self.report.slide_error_m = float(np.linalg.norm(actual[:2] - self.predicted[:2]))
+        self.report.slide_error_rad = abs(wrap_angle(actual[2] - self.predicted[2]))
         placed = transform_polygon(self.obj.polygon, *actual)
         ov = overhang(placed, self.table.polygon)
         ok, info = False, {"reason": "overhang below u_star or centroid off the table"}
         if ov.graspable(self.params.grasp_u_star):
-            validator = self.planner.validator
             t0 = time.perf_counter()
-            validator.deadline = t0 + self.params.grasp_budget
-            ok, info = validator.check_placement(
-                actual, self.q_cmd, self.params.grasp_u_star, lifted=True, centroid_margin=0.0
+            ok, info = self.planner.reaim_grasp(
+                actual, self.q_cmd, self.params.grasp_budget, self.params.grasp_u_star
             )
-            self.report["planning_time_s"] += time.perf_counter() - t0
-        self.report["events"].append(
-            f"slid: overhang {ov.u:.3f} m, error {self.report['slide_error_m']:.3f} m "
-            f"{self.report['slide_error_rad']:.3f} rad, grasp {'ok' if ok else info.get('reason')}"
+            self.report.planning_time_s += time.perf_counter() - t0
+        self.report.events.append(
+            f"slid: overhang {ov.u:.3f} m, error {self.report.slide_error_m:.3f} m "
+            f"{self.report.slide_error_rad:.3f} rad, grasp {'ok' if ok else info.get('reason')}"
         )
         if ok:
             return self._queue_grasp(np.asarray(info["transfer_path"]))
-        if self.report["replans"] >= self.params.max_replans:
+        if self.report.replans >= self.params.max_replans:
             return self._fail(f"not graspable after the slide ({info.get('reason')})")
-        self.report["replans"] += 1
+        self.report.replans += 1
         self._plan(obs)
 
     def _queue_grasp(self, transfer: np.ndarray) -> None:

@@ -1,5 +1,6 @@
-"""Feedback and motion helpers of the expert: the contact loops, straight Cartesian moves, and
-pose arithmetic on observations."""
+"""Feedback and motion helpers of the expert: the contact loops (:class:`ContactTracker`) and
+straight Cartesian moves (:func:`cartesian_line`). Pose arithmetic lives in
+:mod:`slide_gym.geometry` (``quat_yaw``, ``wrap_angle``)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ import numpy as np
 
 from agents.params import ExpertParams
 from slide_gym.planning.api import IKParams, IKTarget, solve_ik
-from slide_gym.planning.kin import FastChain
+from slide_gym.robot.kinematics import FastChain
 
 _LOCAL_IK = IKParams(n_restarts=1)  # the seed only: no jump to another IK branch
 LINE_STEP = 0.01  # m between the IK waypoints of a straight Cartesian move

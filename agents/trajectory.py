@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from slide_gym.planning.kin import FastChain
+from slide_gym.robot.kinematics import FastChain
 
 
 @dataclass(frozen=True)
@@ -23,7 +23,7 @@ class Segment:
 
     ``joint_speed`` caps every joint (rad/s); ``tip_speed`` (m/s) caps the motion of the frame
     ``chain`` computes (the fingertip while sliding). ``hand`` is the hand command u during the
-    leg, reached from the previous one at ``hand_rate`` (1/s). ``hold_s`` keeps the last
+    leg (the tendon servo ramps toward it at ``HandParams.u_rate``). ``hold_s`` keeps the last
     waypoint for that long after arriving (contact settles, fingers close).
     """
 

@@ -1,7 +1,10 @@
 """A thin wrapper around one PyBullet client: bodies addressed by name.
 
-Everything that talks to PyBullet directly goes through :class:`Simulation`, so the
-robot, the task and the environment stay free of client ids and body indices.
+The task and the environment build and read bodies through :class:`Simulation` by name, so
+they stay free of client ids and body indices. Two hot paths talk to PyBullet directly on
+purpose: :class:`~slide_gym.robot.WamT42` (joint states and torques every physics step) and
+the planner's :class:`~slide_gym.planning.collision.CollisionChecker` (raw client calls per
+collision check); both still create their bodies through a :class:`Simulation`.
 """
 
 from __future__ import annotations

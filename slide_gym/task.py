@@ -141,6 +141,21 @@ def sample_start_pose(
     )
 
 
+def add_table_body(sim: Simulation, table: TableShape, friction: float = 0.5) -> int:
+    """The table as a static body named ``"table"``: its convex pieces as prisms from
+    ``slab_thickness`` below the top surface up to it (the env's world and the planner's
+    collision world build it the same way)."""
+    return sim.create_prism_body(
+        "table",
+        table.convex_pieces(),
+        table.height - table.slab_thickness,
+        table.height,
+        mass=0.0,
+        rgba=(0.72, 0.62, 0.5, 1.0),
+        lateral_friction=friction,
+    )
+
+
 class TopSlideTask:
     """Builds the table and object in a :class:`Simulation` and reads the scene state."""
 
@@ -158,15 +173,7 @@ class TopSlideTask:
         self._placement_key: tuple[float, float, float] | None = None
         self._placement_value = (0.0, True, False)
         p = self.params
-        sim.create_prism_body(
-            "table",
-            table.convex_pieces(),
-            table.height - table.slab_thickness,
-            table.height,
-            mass=0.0,
-            rgba=(0.72, 0.62, 0.5, 1.0),
-            lateral_friction=p.table_friction,
-        )
+        add_table_body(sim, table, p.table_friction)
         half = obj.thickness / 2.0
         sim.create_prism_body(
             "object",

@@ -12,7 +12,6 @@ import shapely
 
 from slide_gym.assets import robot_urdf
 from slide_gym.geometry import get_object, get_table, overhang, transform_polygon
-from slide_gym.kinematics import robot_chain
 from slide_gym.planning.api import (
     CollisionChecker,
     ContactBand,
@@ -25,9 +24,7 @@ from slide_gym.planning.api import (
     StartRegion,
     TopSlideProblem,
     contact_rotation,
-    fast_chain,
     goal_band,
-    grasp_chain,
     grasp_poses,
     planar_pose,
     se2_compose,
@@ -35,6 +32,7 @@ from slide_gym.planning.api import (
     slid_object_pose,
     solve_ik,
 )
+from slide_gym.robot.kinematics import fast_chain, grasp_chain, robot_chain
 from slide_gym.robot.model import ARM_JOINTS, ARM_LOWER, ARM_UPPER, READY_ARM_Q
 
 TABLE = get_table("square")

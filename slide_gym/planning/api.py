@@ -10,28 +10,20 @@ from slide_gym.planning.constraints import (
     finger_b_low,
     planar_pose,
 )
-from slide_gym.planning.ik import (
-    IKParams,
-    IKTarget,
-    fingertip_chain,
-    grasp_chain,
-    pose_error,
-    solve_ik,
-)
-from slide_gym.planning.kin import FastChain, fast_chain
+from slide_gym.planning.ik import IKParams, IKTarget, pose_error, solve_ik
 from slide_gym.planning.pair import GraspParams, PairValidator, grasp_poses
 from slide_gym.planning.params import SlideParams
+from slide_gym.planning.problem import TopSlideProblem
 from slide_gym.planning.regions import GoalRegion, StartRegion, goal_band, nominal_seed
 from slide_gym.planning.se2 import se2_compose, se2_inverse, slid_object_pose
 from slide_gym.planning.search import PLANNERS
-from slide_gym.planning.top_slide import TopSlidePlanner, TopSlideProblem
+from slide_gym.planning.top_slide import TopSlidePlanner
 
 __all__ = [
     "MODES",
     "PLANNERS",
     "CollisionChecker",
     "ContactBand",
-    "FastChain",
     "GoalRegion",
     "GraspParams",
     "IKParams",
@@ -43,11 +35,8 @@ __all__ = [
     "TopSlidePlanner",
     "TopSlideProblem",
     "contact_rotation",
-    "fast_chain",
     "finger_b_low",
-    "fingertip_chain",
     "goal_band",
-    "grasp_chain",
     "grasp_poses",
     "nominal_seed",
     "planar_pose",

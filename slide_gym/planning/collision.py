@@ -23,6 +23,7 @@ from slide_gym.assets import robot_urdf
 from slide_gym.geometry import ObjectShape, TableShape
 from slide_gym.robot.model import ARM_JOINTS, READY_ARM_Q
 from slide_gym.sim import Simulation
+from slide_gym.task import add_table_body
 
 MODES: tuple[str, ...] = ("sliding", "full")
 FINGER_A_LINKS: tuple[str, ...] = ("t42_a_proximal_link", "t42_a_distal_link")
@@ -58,13 +59,7 @@ class CollisionChecker:
         self.sim = Simulation()
         c = self.sim.client
         self._cid = c._client  # noqa: SLF001 - raw calls skip BulletClient's per-call overhead
-        self.table_id = self.sim.create_prism_body(
-            "table",
-            table.convex_pieces(),
-            table.height - table.slab_thickness,
-            table.height,
-            mass=0.0,
-        )
+        self.table_id = add_table_body(self.sim, table)
         self.object_id = -2
         self.object_placed = False
         if obj is not None:

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 
-from slide_gym.planning.kin import FastChain
+from slide_gym.robot.kinematics import FastChain
 from slide_gym.robot.model import ARM_LOWER, ARM_UPPER, FINGER_BASE_SPACING, TIP_RADIUS
 
 _Z = np.array([0.0, 0.0, 1.0])

@@ -1,9 +1,9 @@
 """Damped-least-squares inverse kinematics, batched over random restarts.
 
 All restarts iterate together as one NumPy batch; each step is clipped to the joint limits.
-Targets give a position and, optionally, some or all axes of an orientation. Besides the
-fingertip chain, :func:`grasp_chain` gives the hand's grasp frame (between the two resting
-fingertips) as a flange chain plus a fixed offset.
+Targets give a position and, optionally, some or all axes of an orientation. The chains to
+solve for (:func:`~slide_gym.robot.kinematics.fingertip_chain`,
+:func:`~slide_gym.robot.kinematics.grasp_chain`) live with the robot.
 """
 
 from __future__ import annotations
@@ -11,45 +11,11 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
-from functools import lru_cache
 
 import numpy as np
 
-from slide_gym.kinematics import robot_chain
-from slide_gym.planning.kin import FastChain, fast_chain
-from slide_gym.robot.model import (
-    ARM_LOWER,
-    ARM_UPPER,
-    BASE_TO_SHOULDER,
-    DH,
-    DISTAL_LENGTH,
-    PIVOT_HEIGHT,
-    PROXIMAL_LENGTH,
-)
-
-GRASP_DEPTH_IN_HAND = PIVOT_HEIGHT + PROXIMAL_LENGTH + DISTAL_LENGTH
-"""Distance (m) along the flange z axis from the flange to the resting fingertips' apexes."""
-WRIST_TO_GRASP = float(DH[6, 2]) + GRASP_DEPTH_IN_HAND
-"""Distance (m) from the wrist centre (joints 5-7 axes) to the grasp frame, along the approach."""
-SHOULDER = np.array([0.0, 0.0, BASE_TO_SHOULDER])
-WRIST_REACH = float(np.hypot(DH[2, 0], DH[2, 2]) + np.hypot(DH[3, 0], DH[4, 2]))
-"""Largest shoulder-to-wrist-centre distance (m) of the WAM (an upper bound)."""
-
-
-@lru_cache(maxsize=1)
-def grasp_chain() -> FastChain:
-    """Kinematics of the grasp frame: flange axes, origin midway between the fingertip apexes.
-
-    Its y axis is the finger-spacing axis (finger A at +y), z the approach direction.
-    """
-    offset = np.eye(4)
-    offset[2, 3] = GRASP_DEPTH_IN_HAND
-    return FastChain(robot_chain("wam_flange"), offset)
-
-
-def fingertip_chain() -> FastChain:
-    """Kinematics of the ``fingertip_contact`` frame (finger A's contact, hand at rest)."""
-    return fast_chain("fingertip_contact")
+from slide_gym.robot.kinematics import FastChain
+from slide_gym.robot.model import ARM_LOWER, ARM_UPPER
 
 
 @dataclass(frozen=True)

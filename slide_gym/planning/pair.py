@@ -23,20 +23,18 @@ import shapely
 from slide_gym.geometry import ObjectShape, TableShape, overhang, transform_polygon, wrap_angle
 from slide_gym.planning.collision import CollisionChecker
 from slide_gym.planning.constraints import planar_pose
-from slide_gym.planning.ik import (
-    SHOULDER,
-    WRIST_REACH,
-    WRIST_TO_GRASP,
-    IKParams,
-    IKTarget,
-    grasp_chain,
-    solve_ik,
-)
-from slide_gym.planning.kin import FastChain
+from slide_gym.planning.ik import IKParams, IKTarget, solve_ik
 from slide_gym.planning.result import SearchParams
 from slide_gym.planning.se2 import slid_object_pose
 from slide_gym.planning.search import ForestConnectPlanner, SearchFunctions
 from slide_gym.planning.smoothing import shortcut_path
+from slide_gym.robot.kinematics import (
+    SHOULDER,
+    WRIST_REACH,
+    WRIST_TO_GRASP,
+    FastChain,
+    grasp_chain,
+)
 from slide_gym.robot.model import ARM_LOWER, ARM_UPPER
 
 

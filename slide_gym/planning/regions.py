@@ -16,14 +16,8 @@ import shapely
 
 from slide_gym.planning.collision import CollisionChecker
 from slide_gym.planning.constraints import SlideConstraints, contact_rotation
-from slide_gym.planning.ik import (
-    SHOULDER,
-    WRIST_REACH,
-    WRIST_TO_GRASP,
-    IKParams,
-    IKTarget,
-    solve_ik,
-)
+from slide_gym.planning.ik import IKParams, IKTarget, solve_ik
+from slide_gym.robot.kinematics import SHOULDER, WRIST_REACH, WRIST_TO_GRASP
 from slide_gym.robot.model import ARM_LOWER, ARM_UPPER, READY_ARM_Q
 
 TWO_PI = 2.0 * math.pi

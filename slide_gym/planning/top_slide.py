@@ -1,9 +1,9 @@
-"""Top-sliding planning problem and the planner facade (OMPL-like flow).
+"""The top-slide planner facade (OMPL-like flow).
 
-``TopSlideProblem`` holds the scene and what follows from it (P_o in the world, the goal band
-P_g, the contact height band); ``TopSlidePlanner`` wires the robot-specific callables
-(regions, projection, collision, pair validation) into the search core and turns its answer
-into a :class:`PlanResult` with a densified path and everything needed to execute it.
+``TopSlidePlanner`` wires the robot-specific callables (regions, projection, collision, pair
+validation) for a :class:`~slide_gym.planning.problem.TopSlideProblem` into the search core and
+turns its answer into a :class:`PlanResult` with a densified path and everything needed to
+execute it. Executors re-aim the grasp and check routes through its public methods.
 """
 
 from __future__ import annotations
@@ -13,15 +13,12 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-import shapely
 
-from slide_gym.geometry import ObjectShape, TableShape, get_object, get_table, transform_points
 from slide_gym.planning.collision import CollisionChecker
 from slide_gym.planning.constraints import ContactBand, SlideConstraints
-from slide_gym.planning.ik import fingertip_chain
 from slide_gym.planning.pair import PairValidator
-from slide_gym.planning.params import SlideParams
-from slide_gym.planning.regions import GoalRegion, StartRegion, goal_band
+from slide_gym.planning.problem import TopSlideProblem
+from slide_gym.planning.regions import GoalRegion, StartRegion
 from slide_gym.planning.result import Planner, PlannerStats, PlanResult, PlanStatus, SearchParams
 from slide_gym.planning.search import (
     PLANNERS,
@@ -31,82 +28,8 @@ from slide_gym.planning.search import (
     forest_connect_search,
 )
 from slide_gym.planning.smoothing import shortcut_path
+from slide_gym.robot.kinematics import fingertip_chain
 from slide_gym.robot.model import ARM_LOWER, ARM_UPPER
-from slide_gym.task import check_scene, validate_start_pose
-
-
-def _supported_pose(obj: ObjectShape, table: TableShape, pose: Any) -> np.ndarray:
-    """A start pose whose centroid is over the table (the plate may overhang)."""
-    arr = np.asarray(pose, dtype=float).reshape(-1)
-    if arr.shape != (3,) or not np.all(np.isfinite(arr)):
-        raise ValueError(f"object_pose must be 3 finite numbers (x, y, yaw), got {pose!r}")
-    if not shapely.contains_xy(table.polygon, arr[0], arr[1]):
-        raise ValueError(f"object_pose {arr.tolist()} puts the object's centroid off the table")
-    return arr
-
-
-class TopSlideProblem:
-    """A plate on a table at a start pose; raises ValueError for scenes that cannot work.
-
-    Args:
-        obj: an :class:`ObjectShape` or a catalog name / JSON path.
-        table: a :class:`TableShape` or a catalog name / JSON path.
-        object_start_pose: (x, y, yaw) of the plate, fully on the table and in reach.
-        params: planner parameters.
-        allow_overhang: accept a start pose that already overhangs an edge (a replan after a
-            short slide); the centroid must still be over the table, and presses stay over it.
-    """
-
-    def __init__(
-        self,
-        obj: ObjectShape | str,
-        table: TableShape | str,
-        object_start_pose: Any,
-        params: SlideParams | None = None,
-        allow_overhang: bool = False,
-    ):
-        self.object = get_object(obj)
-        self.table = get_table(table)
-        self.params = params or SlideParams()
-        check_scene(self.object, self.table)
-        if allow_overhang:
-            self.start_pose = _supported_pose(self.object, self.table, object_start_pose)
-        else:
-            self.start_pose = validate_start_pose(self.object, self.table, object_start_pose)
-        self.z_surface = self.table.height + self.object.thickness
-        self.height_range = self.params.contact_height_range(self.z_surface)
-        top = self.object.top_surface_points(self.params.cloud_spacing)
-        if self.params.press_edge_margin > 0.0:  # a rounded tip pressed near an edge slips off
-            inset = shapely.distance(self.object.polygon.boundary, shapely.points(top[:, :2]))
-            top = top[inset >= min(self.params.press_edge_margin, inset.max())]
-        if self.params.press_radius is not None:  # P_o near the centroid: less spin while sliding
-            d = np.linalg.norm(top[:, :2], axis=1)  # the shape's frame is centred on its centroid
-            top = top[d <= d.min() + self.params.press_radius]
-        xy = transform_points(top[:, :2], *self.start_pose)
-        if allow_overhang:  # press only where the table is underneath
-            inner = self.table.polygon.buffer(-self.params.cloud_spacing)
-            xy = xy[shapely.contains_xy(inner, xy[:, 0], xy[:, 1])]
-            if len(xy) == 0:
-                raise ValueError("no part of the object's top lies over the table to press on")
-        self.start_points = np.column_stack([xy, np.full(len(xy), self.z_surface)])
-        grasp_z = self.table.height + 0.5 * self.object.thickness
-        self.goal_band = goal_band(
-            self.table.polygon,
-            self.params.goal_band_width,
-            grasp_z if self.params.goal_band_reachable else None,
-            self.params.grasp.edge_clearance,
-        )
-
-    def describe(self) -> dict[str, Any]:
-        """Scene summary for results and logs."""
-        return {
-            "object": self.object.name,
-            "table": self.table.name,
-            "object_start_pose": self.start_pose.tolist(),
-            "z_surface": self.z_surface,
-            "contact_height_range": list(self.height_range),
-            "n_start_points": len(self.start_points),
-        }
 
 
 class _OutOfTime(Exception):
@@ -206,6 +129,47 @@ class TopSlidePlanner(Planner):
         """Fingertip displacement (m) between two configurations."""
         tips = self.chain.forward(np.stack([a, b]))
         return float(np.linalg.norm(tips[0, :3, 3] - tips[1, :3, 3]))
+
+    # ------------------------------------------------------- for executors
+    def reaim_grasp(
+        self, object_pose: Any, q_from: np.ndarray, time_budget: float, u_star: float
+    ) -> tuple[bool, dict[str, Any]]:
+        """Re-aim the side grasp at a measured plate pose (x, y, yaw) after a real slide.
+
+        ``q_from`` is the arm with the fingertip already lifted off the plate. Runs the
+        placement half of pair validation (overhang >= ``u_star``, centroid on the table, a
+        collision-free, liftable grasp and a transfer from ``q_from``) for at most
+        ``time_budget`` seconds. Returns ``(ok, info)``; ``info["transfer_path"]`` runs from
+        ``q_from`` to the grasp, ``info["reason"]`` says why not.
+        """
+        if not time_budget > 0.0:  # NaN fails too; inf means no limit
+            raise ValueError(f"time_budget must be > 0 seconds, got {time_budget!r}")
+        saved = self.validator.deadline
+        self.validator.deadline = time.perf_counter() + time_budget
+        try:
+            return self.validator.check_placement(
+                np.asarray(object_pose, dtype=float),
+                np.asarray(q_from, dtype=float),
+                u_star,
+                lifted=True,
+                centroid_margin=0.0,
+            )
+        finally:
+            self.validator.deadline = saved
+
+    def route_free(
+        self, route: Sequence[np.ndarray], object_pose: Any = None, resolution: float = 0.02
+    ) -> bool:
+        """Is the joint-space polyline ``route`` free of collisions for the whole robot (finger
+        A included), with the plate at ``object_pose`` (x, y, yaw; None: no plate)?"""
+        self.checker.place_object(None if object_pose is None else np.asarray(object_pose))
+        try:
+            return all(
+                self.checker.segment_free(a, b, "full", resolution)
+                for a, b in zip(route[:-1], route[1:], strict=True)
+            )
+        finally:
+            self.checker.place_object(None)
 
     # ---------------------------------------------------------------- solve
     def _draw(self, region: Any, deadline: float, stats: PlannerStats) -> np.ndarray | str:

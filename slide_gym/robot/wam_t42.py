@@ -32,13 +32,13 @@ Known limit: a tip pressed hard (>= 1 cm) onto a surface it cannot slide on (tip
 from __future__ import annotations
 
 import math
-import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
 import pybullet as pb
 
 from slide_gym.assets import robot_urdf
+from slide_gym.robot.kinematics import urdf_joints
 from slide_gym.robot.model import (
     ARM_JOINTS,
     ARM_TORQUE_LIMITS,
@@ -372,21 +372,15 @@ def _merged_frames(
     Links kept by PyBullet have no offset; a fixed link merged into its parent gets the
     composed origins of the fixed joints between it and the nearest kept ancestor.
     """
-    root = ET.parse(urdf).getroot()
-    fixed = {}
-    for joint in root.findall("joint"):
-        if joint.get("type") == "fixed":
-            origin = joint.find("origin")
-            xyz = [float(v) for v in origin.get("xyz", "0 0 0").split()]
-            rpy = [float(v) for v in origin.get("rpy", "0 0 0").split()]
-            fixed[joint.find("child").get("link")] = (
-                joint.find("parent").get("link"),
-                xyz,
-                pb.getQuaternionFromEuler(rpy),
-            )
+    joints = urdf_joints(str(urdf))
+    fixed = {
+        j.child: (j.parent, j.xyz, pb.getQuaternionFromEuler(j.rpy))
+        for j in joints
+        if j.type == "fixed"
+    }
     frames: dict[str, tuple[int, tuple | None, tuple | None]] = {"wam_base": (-1, None, None)}
     frames.update({name: (index, None, None) for name, index in links.items()})
-    for link in (el.get("name") for el in root.findall("link")):
+    for link in (j.child for j in joints):
         if link in frames:
             continue
         pos, quat, parent = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0), link

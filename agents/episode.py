@@ -1,16 +1,17 @@
-"""One expert episode in ``SlideGym/TopSlideGrasp-v0`` with a JSON-ready summary
-(the ``slide-gym run`` contract)."""
+"""One expert episode in ``SlideGym/TopSlideGrasp-v0``, returned as an
+:class:`~agents.record.EpisodeRecord` (its ``to_json_dict()`` is the ``slide-gym run --json``
+contract)."""
 
 from __future__ import annotations
 
 import time
 from pathlib import Path
-from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
 from agents.planner_agent import PlannerAgent
+from agents.record import EpisodeRecord
 from slide_gym.geometry import ObjectShape, TableShape, get_object, get_table
 from slide_gym.planning.result import check_time_budget
 
@@ -29,7 +30,7 @@ def run_episode(
     planner: str = "regions",
     time_budget: float = 10.0,
     video: Path | None = None,
-) -> dict[str, Any]:
+) -> EpisodeRecord:
     """Run the planner agent for one seeded episode; success is the env's ``is_success``."""
     check_time_budget(time_budget)
     if video is not None and Path(video).suffix.lower() not in VIDEO_SUFFIXES:
@@ -39,7 +40,7 @@ def run_episode(
         ENV_ID, object=shape, table=table_shape, render_mode="rgb_array" if video else None
     )
     agent = PlannerAgent(planner, time_budget, seed=seed, objects=[shape], tables=[table_shape])
-    dt = env.unwrapped.n_substeps * env.unwrapped.sim.physics.timestep
+    dt = env.unwrapped.dt
     wall = time.perf_counter()
     frames = []
     try:
@@ -57,7 +58,7 @@ def run_episode(
                 frames.append(env.render())
         expert = agent.expert(0)
         assert expert is not None
-        report = dict(expert.report)
+        report = expert.report
         phase = expert.phase
     finally:
         agent.close()
@@ -65,35 +66,26 @@ def run_episode(
     wall_time = time.perf_counter() - wall
     if video:
         _write_video(Path(video), frames, VIDEO_EVERY * dt)
-    return {
-        "object": shape.name,
-        "table": table_shape.name,
-        "scale": float(scale),
-        "seed": int(seed),
-        "planner": planner,
-        "success": bool(info["is_success"]),
-        "planned": report["planned"],
-        "replans": report["replans"],
-        "planning_time_s": report["planning_time_s"],
-        "plan_status": report["plan_status"],
-        "phase_reached": phase,
-        "failure": report["failure"],
-        "events": report["events"],
-        "steps": steps,
-        "sim_time_s": steps * dt,
-        "wall_time_s": wall_time,
-        "object_start_pose": [float(v) for v in start],
-        "object_predicted_pose": report["object_predicted_pose"],
-        "object_slid_pose": report["object_slid_pose"],
-        "object_final_pose": [float(v) for v in info["object_pose_2d"]],
-        "lift_height_m": float(info["lift_m"]),
-        "max_lift_height_m": max_lift,
-        "slide_error_m": report["slide_error_m"],
-        "slide_error_rad": report["slide_error_rad"],
-        "fell_off": bool(info["fell_off"]),
-        "truncated": bool(truncated),
-        "video": str(video) if video else None,
-    }
+    return EpisodeRecord(
+        object=shape.name,
+        table=table_shape.name,
+        scale=float(scale),
+        seed=int(seed),
+        planner=planner,
+        success=bool(info["is_success"]),
+        expert=report,
+        phase_reached=phase,
+        steps=steps,
+        sim_time_s=steps * dt,
+        wall_time_s=wall_time,
+        object_start_pose=[float(v) for v in start],
+        object_final_pose=[float(v) for v in info["object_pose_2d"]],
+        lift_height_m=float(info["lift_m"]),
+        max_lift_height_m=max_lift,
+        fell_off=bool(info["fell_off"]),
+        truncated=bool(truncated),
+        video=str(video) if video else None,
+    )
 
 
 def _write_video(path: Path, frames: list[np.ndarray], frame_dt: float) -> None:

@@ -81,7 +81,8 @@ class PlannerAgent:
         self._slots = []
 
     def expert(self, index: int = 0) -> SlideGraspExpert | None:
-        """The controller of batch slot ``index`` (its ``report`` says what happened)."""
+        """The controller of batch slot ``index`` (its ``report``, an
+        :class:`agents.record.ExpertReport`, says what happened)."""
         return self._slots[index] if index < len(self._slots) else None
 
     def predict(

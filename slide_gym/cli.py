@@ -8,11 +8,12 @@ import math
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from slide_gym.planning.search import PLANNERS
 
-PLAN_BENCH_OBJECTS = "square,circle,triangle,crescent,irregular"
+if TYPE_CHECKING:  # agents builds on slide_gym: imported on use only
+    from agents.record import EpisodeRecord
 
 
 def _cmd_shapes(args: argparse.Namespace) -> int:
@@ -58,7 +59,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
-    from slide_gym.demo import run_demo
+    from agents.scripted import run_demo
 
     summary = run_demo(args.object, args.table, seed=args.seed, out=args.out)
     print(json.dumps(summary, indent=2))
@@ -109,7 +110,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     return 0
 
 
-def _run_episode() -> Callable[..., dict[str, Any]]:
+def _run_episode() -> Callable[..., EpisodeRecord]:
     """``agents.episode.run_episode``, imported on use."""
     from agents.episode import run_episode
 
@@ -121,7 +122,7 @@ def _opt(value: Any, spec: str, suffix: str = "") -> str:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    s = _run_episode()(
+    r = _run_episode()(
         args.object,
         args.table,
         scale=args.scale,
@@ -131,56 +132,59 @@ def _cmd_run(args: argparse.Namespace) -> int:
         video=args.video,
     )
     if args.json:
-        print(json.dumps(s))
+        print(json.dumps(r.to_json_dict()))
         return 0
-    verdict = "lifted" if s["success"] else "failed"
+    e = r.expert
     print(
-        f"{verdict}: {s['object']} on {s['table']}, seed {s['seed']}, {s['planner']} planner, "
-        f"phase reached {s['phase_reached']}"
+        f"{'lifted' if r.success else 'failed'}: {r.object} on {r.table}, seed {r.seed}, "
+        f"{r.planner} planner, phase reached {r.phase_reached}"
     )
     print(
-        f"  planned {'yes' if s['planned'] else 'no'} ({s['replans']} replans, "
-        f"{_opt(s['planning_time_s'], '.2f', ' s')} planning); {s['steps']} steps, "
-        f"{_opt(s['sim_time_s'], '.1f', ' s')} simulated in {_opt(s['wall_time_s'], '.1f', ' s')}"
+        f"  planned {'yes' if e.planned else 'no'} ({e.replans} replans, "
+        f"{_opt(e.planning_time_s, '.2f', ' s')} planning); {r.steps} steps, "
+        f"{_opt(r.sim_time_s, '.1f', ' s')} simulated in {_opt(r.wall_time_s, '.1f', ' s')}"
     )
-    rad, cm = s["slide_error_rad"], s["slide_error_m"]
-    pose = s["object_final_pose"]
+    cm = None if e.slide_error_m is None else 100.0 * e.slide_error_m
+    deg = None if e.slide_error_rad is None else math.degrees(e.slide_error_rad)
+    pose = r.object_final_pose
     print(
-        f"  slide error {_opt(None if cm is None else 100.0 * cm, '.1f', ' cm')} / "
-        f"{_opt(None if rad is None else math.degrees(rad), '.1f', ' deg')}, lift "
-        f"{_opt(s['lift_height_m'], '.3f', ' m')}, final pose "
+        f"  slide error {_opt(cm, '.1f', ' cm')} / {_opt(deg, '.1f', ' deg')}, lift "
+        f"{_opt(r.lift_height_m, '.3f', ' m')}, final pose "
         + ("n/a" if pose is None else "(" + ", ".join(f"{v:.3f}" for v in pose) + ")")
     )
-    if s["failure"]:
-        print(f"  failure: {s['failure']}")
+    if e.failure:
+        print(f"  failure: {e.failure}")
     if args.video is not None:
         print(f"  wrote {args.video}")
     return 0
 
 
-def _names(text: str | None, default: Sequence[str]) -> list[str]:
-    return list(default) if text is None else [n for n in text.split(",") if n]
+def _names(text: str) -> list[str]:
+    """A comma-separated list of names (empty items dropped)."""
+    return [n for n in text.split(",") if n]
 
 
-def _cmd_bench(args: argparse.Namespace) -> int:
-    if args.what == "execute":
-        return _bench_execute(args)
-    from slide_gym.bench import bench_env, bench_plan, write_result
+def _cmd_bench_env(args: argparse.Namespace) -> int:
+    from slide_gym.bench.env import bench_env, write_result
 
-    if args.what == "env":
-        result = bench_env(
-            args.object, args.table, steps=args.steps, resets=args.resets, seed=args.seed
-        )
-        write_result(result, args.out)
-        return 0
+    result = bench_env(
+        args.object, args.table, steps=args.steps, resets=args.resets, seed=args.seed
+    )
+    write_result(result, args.out)
+    return 0
+
+
+def _cmd_bench_plan(args: argparse.Namespace) -> int:
+    from slide_gym.bench.plan import bench_plan
+
     summary = bench_plan(
-        objects=_names(args.objects, PLAN_BENCH_OBJECTS.split(",")),
+        objects=_names(args.objects),
         table=args.table,
-        planners=args.planners.split(","),
-        trials=20 if args.trials is None else args.trials,
+        planners=_names(args.planners),
+        trials=args.trials,
         time_budget=args.time_budget,
         dz=_floats(args.dz, 2, "--dz"),
-        out=args.out or Path("results/bench_plan.jsonl"),
+        out=args.out,
         workers=args.workers,
         seed=args.seed,
         plot=args.plot,
@@ -189,15 +193,14 @@ def _cmd_bench(args: argparse.Namespace) -> int:
     return 0
 
 
-def _bench_execute(args: argparse.Namespace) -> int:
-    from slide_gym.bench_execute import bench_execute, execute_markdown_table
-    from slide_gym.geometry import OBJECT_NAMES, TABLE_NAMES
+def _cmd_bench_execute(args: argparse.Namespace) -> int:
+    from slide_gym.bench.execute import bench_execute, execute_markdown_table
 
     summary = bench_execute(
-        objects=_names(args.objects, OBJECT_NAMES),
-        tables=_names(args.tables, TABLE_NAMES),
-        trials=10 if args.trials is None else args.trials,
-        out=args.out or Path("results/bench_execute.jsonl"),
+        objects=_names(args.objects),
+        tables=_names(args.tables),
+        trials=args.trials,
+        out=args.out,
         planner=args.planner,
         time_budget=args.time_budget,
         workers=args.workers,
@@ -205,6 +208,180 @@ def _bench_execute(args: argparse.Namespace) -> int:
     )
     print(execute_markdown_table(summary) if args.markdown else json.dumps(summary, indent=2))
     return 0
+
+
+def _add_bench(sub: Any) -> None:
+    """``slide-gym bench env|plan|execute``: one subcommand each, with its own options."""
+    from slide_gym.bench import env, execute, plan
+    from slide_gym.geometry import OBJECT_NAMES, TABLE_NAMES
+
+    bench = sub.add_parser(
+        "bench",
+        help="benchmarks: env throughput, planners, expert episodes",
+        description="Benchmarks; the README's numbers come from these. Results print as JSON.",
+    )
+    what = bench.add_subparsers(dest="what", metavar="{env,plan,execute}", required=True)
+
+    def common(p: argparse.ArgumentParser, first_seed: str) -> None:
+        p.add_argument("--seed", type=int, default=0, help=f"{first_seed} (default: %(default)s)")
+
+    def jobs(p: argparse.ArgumentParser, out: Path) -> None:
+        p.add_argument(
+            "--workers",
+            type=int,
+            default=None,
+            metavar="N",
+            help="worker processes (default: one per CPU core)",
+        )
+        p.add_argument(
+            "--out",
+            type=Path,
+            default=out,
+            metavar="FILE",
+            help="results JSONL, one line per case as it finishes; a re-run skips finished "
+            "cases, so an interrupted run resumes (default: %(default)s)",
+        )
+
+    p = what.add_parser(
+        "env",
+        help="environment throughput, real-time factor, overhead and reset time",
+        description="Step SlideGym/TopSlide-v0 with the scripted slider's actions (recorded "
+        "once, replayed), then the same world without observations or rewards; time resets.",
+    )
+    p.add_argument(
+        "--object",
+        default="square",
+        metavar="NAME",
+        help="catalog name or JSON file (default: %(default)s)",
+    )
+    p.add_argument(
+        "--table",
+        default="square",
+        metavar="NAME",
+        help="catalog name or JSON file (default: %(default)s)",
+    )
+    p.add_argument(
+        "--steps",
+        type=int,
+        default=env.STEPS,
+        metavar="N",
+        help="timed env steps, 50 ms simulated each (default: %(default)s)",
+    )
+    p.add_argument(
+        "--resets",
+        type=int,
+        default=env.RESETS,
+        metavar="N",
+        help="timed resets (default: %(default)s)",
+    )
+    common(p, "reset seed")
+    p.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="also append the result as one JSON line here (default: print only)",
+    )
+    p.set_defaults(func=_cmd_bench_env)
+
+    p = what.add_parser(
+        "plan",
+        help="the planners' success rate against planning time",
+        description="Plan from seeded random start poses with each planner; print success "
+        "rates at planning-time marks (resumable, runs in parallel).",
+    )
+    p.add_argument(
+        "--objects",
+        default=",".join(plan.OBJECTS),
+        metavar="NAMES",
+        help="comma-separated objects (default: %(default)s)",
+    )
+    p.add_argument(
+        "--table",
+        default=plan.TABLE,
+        metavar="NAME",
+        help="catalog name or JSON file (default: %(default)s)",
+    )
+    p.add_argument(
+        "--planners",
+        default=",".join(PLANNERS),
+        metavar="NAMES",
+        help=f"comma-separated, from {', '.join(PLANNERS)} (default: %(default)s)",
+    )
+    p.add_argument(
+        "--trials",
+        type=int,
+        default=plan.TRIALS,
+        metavar="N",
+        help="start poses per object, seeds SEED..SEED+N-1 (default: %(default)s)",
+    )
+    p.add_argument(
+        "--time-budget",
+        type=float,
+        default=plan.TIME_BUDGET,
+        metavar="SECONDS",
+        help="planning time per query (default: %(default)s s)",
+    )
+    p.add_argument(
+        "--dz",
+        default=",".join(f"{v:g}" for v in plan.DZ),
+        metavar="LO,HI",
+        help="contact depth relaxation in metres (default: %(default)s m, the paper's dZ* = 2 cm)",
+    )
+    common(p, "first start-pose seed")
+    jobs(p, plan.OUT)
+    p.add_argument(
+        "--plot",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="also write a success-against-time figure here (default: none)",
+    )
+    p.set_defaults(func=_cmd_bench_plan)
+
+    p = what.add_parser(
+        "execute",
+        help="the expert's full episodes (slide, grasp, lift) on every object and table",
+        description="Run the planner expert in SlideGym/TopSlideGrasp-v0 for seeded episodes "
+        "per object and table; print lift rates, slide errors and times (resumable, runs in "
+        "parallel).",
+    )
+    p.add_argument(
+        "--objects",
+        default=",".join(OBJECT_NAMES),
+        metavar="NAMES",
+        help="comma-separated objects (default: %(default)s)",
+    )
+    p.add_argument(
+        "--tables",
+        default=",".join(TABLE_NAMES),
+        metavar="NAMES",
+        help="comma-separated tables (default: %(default)s)",
+    )
+    p.add_argument(
+        "--planner",
+        choices=PLANNERS,
+        default=execute.PLANNER,
+        help="the expert's planner (default: %(default)s)",
+    )
+    p.add_argument(
+        "--trials",
+        type=int,
+        default=execute.TRIALS,
+        metavar="N",
+        help="episodes per object and table, seeds SEED..SEED+N-1 (default: %(default)s)",
+    )
+    p.add_argument(
+        "--time-budget",
+        type=float,
+        default=execute.TIME_BUDGET,
+        metavar="SECONDS",
+        help="planning time per episode, first plan and replans together (default: %(default)s s)",
+    )
+    common(p, "first episode seed")
+    jobs(p, execute.OUT)
+    p.add_argument("--markdown", action="store_true", help="print markdown tables, not JSON")
+    p.set_defaults(func=_cmd_bench_execute)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -260,50 +437,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=_cmd_run)
 
-    p = sub.add_parser("bench", help="benchmarks (results printed as JSON)")
-    p.add_argument(
-        "what",
-        choices=["env", "plan", "execute"],
-        help="env: environment throughput; plan: planners; execute: expert episodes",
-    )
-    p.add_argument("--object", default="square", help="env: the object")
-    p.add_argument(
-        "--objects",
-        default=None,
-        help=f"plan, execute: comma-separated objects (plan: {PLAN_BENCH_OBJECTS}; execute: all)",
-    )
-    p.add_argument("--table", default="square", help="env, plan: the table")
-    p.add_argument("--tables", default=None, help="execute: comma-separated tables (all)")
-    p.add_argument("--planners", default="regions,cbirrt2,cbirrt", help="plan: which planners")
-    p.add_argument("--planner", choices=PLANNERS, default="regions", help="execute: the planner")
-    p.add_argument(
-        "--trials",
-        type=int,
-        default=None,
-        help="plan: start poses per object (20); execute: seeds per object and table (10)",
-    )
-    p.add_argument(
-        "--time-budget", type=float, default=10.0, help="plan, execute: seconds per query"
-    )
-    p.add_argument("--dz", default="0.005,0.025", help="plan: LO,HI (the paper's dZ* = 2 cm)")
-    p.add_argument(
-        "--workers", type=int, default=None, help="plan, execute: processes (default: cores)"
-    )
-    p.add_argument(
-        "--markdown", action="store_true", help="execute: print markdown tables, not JSON"
-    )
-    p.add_argument("--plot", type=Path, default=None, help="plan: success-vs-time figure")
-    p.add_argument("--steps", type=int, default=600, help="env: steps")
-    p.add_argument("--resets", type=int, default=20, help="env: timed resets")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument(
-        "--out",
-        type=Path,
-        default=None,
-        help="env: append the result here; plan, execute: results JSONL (resumable; default "
-        "results/bench_<what>.jsonl)",
-    )
-    p.set_defaults(func=_cmd_bench)
+    _add_bench(sub)
     return parser
 
 
@@ -312,7 +446,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(args.func(args))
     except ValueError as err:
-        print(f"slide-gym {args.command}: error: {err}", file=sys.stderr)
+        command = " ".join(c for c in (args.command, getattr(args, "what", None)) if c)
+        print(f"slide-gym {command}: error: {err}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)

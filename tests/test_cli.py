@@ -104,3 +104,69 @@ def test_plan_bad_input_exits_2(
 ) -> None:
     assert main(["plan", "--object", "square", "--table", "square", *extra]) == 2
     assert match in capsys.readouterr().err
+
+
+def _help(argv: list[str], capsys: pytest.CaptureFixture[str]) -> str:
+    with pytest.raises(SystemExit) as exit_:
+        main([*argv, "--help"])
+    assert exit_.value.code == 0
+    return capsys.readouterr().out
+
+
+def _words(text: str) -> str:
+    return " ".join(text.split())  # argparse wraps help to the terminal's width
+
+
+def test_bench_subcommands_have_their_own_options(capsys: pytest.CaptureFixture[str]) -> None:
+    plan = _help(["bench", "plan"], capsys)
+    assert "--steps" not in plan and "--resets" not in plan and "--markdown" not in plan
+    assert "--planners" in plan and "(default: 20)" in _words(plan)
+    assert "(default: 10.0 s)" in _words(plan) and "results/bench_plan.jsonl" in plan
+    env = _help(["bench", "env"], capsys)
+    assert "--planners" not in env and "--trials" not in env and "--workers" not in env
+    assert "(default: 600)" in _words(env)
+    execute = _help(["bench", "execute"], capsys)
+    assert "--steps" not in execute and "--planners" not in execute and "--plot" not in execute
+    assert "(default: 10)" in _words(execute) and "results/bench_execute.jsonl" in execute
+    for text in (plan, env, execute):
+        assert not any(
+            line.strip().startswith(("env:", "plan:", "execute:")) for line in text.splitlines()
+        )
+
+
+def test_bench_alone_is_a_usage_error(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exit_:
+        main(["bench"])
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("usage: slide-gym bench") and "{env,plan,execute}" in err
+    assert "Traceback" not in err
+
+
+def test_bench_options_of_another_benchmark_are_rejected(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    with pytest.raises(SystemExit) as exit_:
+        main(["bench", "plan", "--steps", "5"])
+    assert exit_.value.code == 2
+    assert "unrecognized arguments: --steps" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("argv", "match"),
+    [
+        (["bench", "plan", "--planners", "regions,banana"], "banana"),
+        (["bench", "plan", "--trials", "0"], "trials"),
+        (["bench", "plan", "--dz", "0.01"], "--dz"),
+        (["bench", "env", "--steps", "0"], "steps"),
+    ],
+)
+def test_bench_bad_values_exit_2_with_one_line(
+    argv: list[str], match: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = ["--out", str(tmp_path / "r.jsonl")]
+    assert main([*argv, *out]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"slide-gym bench {argv[1]}: error: ") and match in err
+    assert err.count("\n") == 1
+    assert not (tmp_path / "r.jsonl").exists()

@@ -1,7 +1,9 @@
-"""``slide-gym run`` and ``slide-gym bench execute`` with a fake episode (no physics)."""
+"""``slide-gym run`` and ``slide-gym bench execute`` with a fake episode (no physics), and the
+episode record they share."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -9,8 +11,10 @@ from typing import Any
 
 import pytest
 
-from slide_gym import bench_execute, cli
-from slide_gym.bench_execute import execute_case, execute_markdown_table, summarize_execute
+from agents import EpisodeRecord, ExpertReport
+from slide_gym import cli
+from slide_gym.bench import execute as bench_execute
+from slide_gym.bench.execute import execute_case, execute_markdown_table, summarize_execute
 from slide_gym.cli import main
 from slide_gym.geometry import OBJECT_NAMES, TABLE_NAMES
 
@@ -42,29 +46,36 @@ class FakeEpisode:
         self.error = error
         self.calls: list[dict[str, Any]] = []
 
-    def __call__(self, object: Any, table: Any, **kwargs: Any) -> dict[str, Any]:  # noqa: A002
+    def __call__(self, object: Any, table: Any, **kwargs: Any) -> EpisodeRecord:  # noqa: A002
         self.calls.append({"object": object, "table": table, **kwargs})
         if self.error is not None:
             raise ValueError(self.error)
-        return {
-            "object": object,
-            "table": table,
-            "seed": kwargs.get("seed", 0),
-            "planner": kwargs.get("planner", "regions"),
-            "success": True,
-            "planned": True,
-            "replans": 1,
-            "planning_time_s": 0.8,
-            "steps": 640,
-            "sim_time_s": 32.0,
-            "wall_time_s": 20.0,
-            "object_final_pose": [0.6, 0.1, 0.3],
-            "lift_height_m": 0.07,
-            "slide_error_m": 0.01,
-            "slide_error_rad": 0.05,
-            "phase_reached": "done",
-            "failure": None,
-        }
+        return EpisodeRecord(
+            object=object,
+            table=table,
+            seed=kwargs.get("seed", 0),
+            planner=kwargs.get("planner", "regions"),
+            success=True,
+            phase_reached="done",
+            steps=640,
+            sim_time_s=32.0,
+            wall_time_s=20.0,
+            object_start_pose=[0.5, 0.0, 0.0],
+            object_final_pose=[0.6, 0.1, 0.3],
+            lift_height_m=0.07,
+            max_lift_height_m=0.08,
+            expert=ExpertReport(
+                planned=True,
+                replans=1,
+                planning_time_s=0.8,
+                plan_status="solved",
+                events=["slid"],
+                object_predicted_pose=[0.6, 0.1, 0.25],
+                object_slid_pose=[0.61, 0.1, 0.3],
+                slide_error_m=0.01,
+                slide_error_rad=0.05,
+            ),
+        )
 
 
 @pytest.fixture
@@ -136,6 +147,57 @@ def test_execute_case_turns_a_value_error_into_a_failure_row(fake: FakeEpisode) 
     assert row["failure"] == fake.error
     assert (row["object"], row["table"], row["seed"]) == ("E", "triangle", 2)
     assert fake.calls[0]["time_budget"] == 5
+
+
+def test_failure_row_and_success_row_have_the_same_keys(fake: FakeEpisode) -> None:
+    case = {"object": "E", "table": "triangle", "seed": 2, "planner": "regions", "time_budget": 5}
+    success = execute_case(case)
+    fake.error = "object does not fit on the table"
+    failure = execute_case(case)
+    assert success["success"] is True and failure["phase_reached"] == "rejected"
+    assert list(failure) == list(success)
+    assert failure["planning_time_s"] is None and failure["wall_time_s"] is None
+    assert failure["events"] == [] and failure["scale"] == 1.0
+
+
+def test_run_json_is_the_records_flat_dict(
+    fake: FakeEpisode, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["run", "--object", "E", "--seed", "4", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    record = fake("E", "square", seed=4)
+    assert out == record.to_json_dict()
+    assert out["planned"] is True and out["slide_error_m"] == 0.01  # the expert's, flattened
+    assert "expert" not in out
+
+
+def test_record_to_json_dict_round_trips_through_json(fake: FakeEpisode) -> None:
+    for record in (
+        fake("L", "round", seed=7, planner="cbirrt"),
+        EpisodeRecord.rejected("L", "round", seed=7, planner="cbirrt", reason="too large"),
+    ):
+        flat = record.to_json_dict()
+        again = json.loads(json.dumps(flat))
+        assert again == flat
+        assert EpisodeRecord.from_json_dict(again) == record
+        assert EpisodeRecord.from_json_dict({"case": {"seed": 7}, **again}) == record
+
+
+def test_record_keys_are_written_once() -> None:
+    episode = {f.name for f in dataclasses.fields(EpisodeRecord)} - {"expert"}
+    expert = {f.name for f in dataclasses.fields(ExpertReport)}
+    assert not episode & expert  # a flat key comes from exactly one of the two
+    rejected = EpisodeRecord.rejected("L", "square", seed=0, planner="regions", reason="x")
+    assert set(rejected.to_json_dict()) == episode | expert >= CONTRACT_KEYS
+
+
+def test_records_do_not_share_event_lists() -> None:
+    a, b = (
+        EpisodeRecord(object="L", table="square", seed=s, planner="regions", phase_reached="plan")
+        for s in (0, 1)
+    )
+    a.expert.events.append("slid")
+    assert b.expert.events == [] and a.to_json_dict()["events"] == ["slid"]
 
 
 def _row(obj: str, table: str, success: bool, error_m: float | None, wall: float) -> dict:

@@ -8,7 +8,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import slide_gym
-from slide_gym.demo import ScriptedSlider
+from agents.scripted import ScriptedSlider
 from slide_gym.envs.top_slide import TopSlideEnv
 
 INFO_KEYS = {

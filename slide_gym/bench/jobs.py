@@ -1,6 +1,10 @@
 """Long batch jobs (benchmarks, experiments): run cases in parallel, write each result as one
 JSON line the moment it is done, skip cases already in the file on a re-run, and stop cleanly
-on Ctrl-C without losing finished work."""
+on Ctrl-C without losing finished work.
+
+A case is a dict of JSON values; :func:`case_key` is the one identity of a case, used both to
+skip finished cases and to pick this run's results out of a file that may hold others.
+"""
 
 from __future__ import annotations
 
@@ -46,12 +50,16 @@ def run_cases(
     workers: int | None = None,
     desc: str = "cases",
 ) -> list[dict[str, Any]]:
-    """Run ``fn(case)`` for every case not yet in ``out``; return all results in ``out``.
+    """Run ``fn(case)`` for every case not yet in ``out``; return the results of ``cases``.
 
-    Each result is stored as ``{"case": case, **fn(case)}``. ``fn`` must be a module-level
+    Each result is stored as ``{"case": case, **fn(case)}``. The returned rows are those in
+    ``out`` (finished before or now, in file order) whose case is one of ``cases``; rows of
+    other cases in the file are kept there but not returned. ``fn`` must be a module-level
     function (it is pickled to worker processes) and must not raise for a failed case: it
     reports failures in its result.
     """
+    cases = list(cases)
+    wanted = {case_key(c) for c in cases}
     out.parent.mkdir(parents=True, exist_ok=True)
     done = {case_key(r["case"]) for r in load_results(out) if "case" in r}
     todo = [c for c in cases if case_key(c) not in done]
@@ -80,7 +88,7 @@ def run_cases(
     except KeyboardInterrupt:
         print(f"\ninterrupted: finished results are in {out}; re-run to resume", file=sys.stderr)
         raise
-    return load_results(out)
+    return [r for r in load_results(out) if "case" in r and case_key(r["case"]) in wanted]
 
 
 class _Call:

@@ -1,17 +1,33 @@
 """``slide-gym bench execute``: the expert agent's full episodes (slide, grasp, lift) on every
-object and table, run in parallel and resumable, summarized as JSON or markdown tables."""
+object and table, run in parallel and resumable, summarized as JSON or markdown tables.
+
+Each result row is an :class:`agents.record.EpisodeRecord` as JSON (the ``slide-gym run
+--json`` keys), whether the episode ran or its scene was rejected.
+"""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from slide_gym.bench.jobs import run_cases
 
-def _run_episode() -> Callable[..., dict[str, Any]]:
+if TYPE_CHECKING:  # agents builds on slide_gym: imported on use only
+    from agents.record import EpisodeRecord
+
+PLANNER = "regions"
+TRIALS = 10
+"""Seeds per object and table."""
+TIME_BUDGET = 10.0
+"""Planning seconds per episode (first plan and replans together)."""
+OUT = Path("results/bench_execute.jsonl")
+
+
+def _run_episode() -> Callable[..., EpisodeRecord]:
     """``agents.episode.run_episode``, imported on use."""
     from agents.episode import run_episode
 
@@ -21,53 +37,38 @@ def _run_episode() -> Callable[..., dict[str, Any]]:
 def execute_case(case: dict[str, Any]) -> dict[str, Any]:
     """One expert episode of the execute benchmark (runs in a worker process).
 
-    A scene the episode rejects (``ValueError``) becomes a failed row carrying the message.
+    A scene the episode rejects (``ValueError``) becomes a failed row carrying the message,
+    with the same keys as an episode's row.
     """
+    from agents.record import EpisodeRecord
+
     try:
-        return dict(
-            _run_episode()(
-                case["object"],
-                case["table"],
-                seed=case["seed"],
-                planner=case["planner"],
-                time_budget=case["time_budget"],
-            )
+        record = _run_episode()(
+            case["object"],
+            case["table"],
+            seed=case["seed"],
+            planner=case["planner"],
+            time_budget=case["time_budget"],
         )
     except ValueError as err:
-        return {
-            "object": case["object"],
-            "table": case["table"],
-            "seed": case["seed"],
-            "planner": case["planner"],
-            "success": False,
-            "planned": False,
-            "replans": 0,
-            "planning_time_s": None,
-            "steps": 0,
-            "sim_time_s": 0.0,
-            "wall_time_s": None,
-            "object_final_pose": None,
-            "lift_height_m": None,
-            "slide_error_m": None,
-            "slide_error_rad": None,
-            "phase_reached": "rejected",
-            "failure": str(err),
-        }
+        record = EpisodeRecord.rejected(
+            case["object"], case["table"], seed=case["seed"], planner=case["planner"], reason=err
+        )
+    return record.to_json_dict()
 
 
 def bench_execute(
     objects: Sequence[str],
     tables: Sequence[str],
-    trials: int,
-    out: Path,
-    planner: str = "regions",
-    time_budget: float = 10.0,
+    trials: int = TRIALS,
+    out: Path = OUT,
+    planner: str = PLANNER,
+    time_budget: float = TIME_BUDGET,
     workers: int | None = None,
     seed: int = 0,
 ) -> dict[str, Any]:
     """Run ``trials`` seeded episodes per object and table (resumable: results go to ``out``)."""
     from slide_gym.geometry import get_object, get_table
-    from slide_gym.jobs import case_key, run_cases
     from slide_gym.planning.result import check_time_budget
     from slide_gym.planning.search import PLANNERS
 
@@ -88,13 +89,7 @@ def bench_execute(
         for o in objects
         for t in tables
     ]
-    keys = {case_key(c) for c in cases}
-    rows = [
-        r
-        for r in run_cases(execute_case, cases, out, workers, desc="execute")
-        if case_key(r["case"]) in keys
-    ]
-    return summarize_execute(rows)
+    return summarize_execute(run_cases(execute_case, cases, out, workers, desc="execute"))
 
 
 def _median(values: Sequence[float]) -> float | None:

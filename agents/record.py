@@ -1,0 +1,133 @@
+"""What one expert episode produced: the ``slide-gym run --json`` object, the rows of
+``slide-gym bench execute``, and the per-episode metadata of datasets.
+
+:class:`ExpertReport` is what the expert itself knows (filled attribute by attribute by
+:class:`agents.expert.SlideGraspExpert` as it plans, slides and re-aims);
+:class:`EpisodeRecord` adds the scene and the environment's outcome. Every JSON key is a field
+name of one of the two: :meth:`EpisodeRecord.to_json_dict` flattens them into one object.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any
+
+
+@dataclass(kw_only=True)
+class ExpertReport:
+    """The expert's account of its episode.
+
+    Attributes:
+        planned: a plan was found.
+        replans: plans made after the first slide (from where the plate lay).
+        planning_time_s: seconds spent planning and re-checking grasps (``None``: no episode
+            ran, the scene was rejected).
+        plan_status: status of the last planner query (``"solved"``, ``"timeout"``,
+            ``"infeasible"``), ``None`` before any.
+        failure: why the expert gave up (or why the scene was rejected), ``None`` otherwise.
+        events: notable moments, in order (failed plan attempts, pull-backs, slide checks).
+        object_predicted_pose: ``[x, y, yaw]`` Eq. 2 predicts after the (last) slide.
+        object_slid_pose: ``[x, y, yaw]`` measured after the (last) slide and lift-off.
+        slide_error_m, slide_error_rad: position and yaw error of the slid pose against the
+            prediction (``None`` if no slide finished).
+    """
+
+    planned: bool = False
+    replans: int = 0
+    planning_time_s: float | None = 0.0
+    plan_status: str | None = None
+    failure: str | None = None
+    events: list[str] = field(default_factory=list)
+    object_predicted_pose: list[float] | None = None
+    object_slid_pose: list[float] | None = None
+    slide_error_m: float | None = None
+    slide_error_rad: float | None = None
+
+
+@dataclass(kw_only=True)
+class EpisodeRecord:
+    """One episode in ``SlideGym/TopSlideGrasp-v0``: scene, outcome and the expert's report.
+
+    Attributes:
+        object, table: shape names; ``scale``: the object's scale; ``seed``: the reset seed;
+            ``planner``: the planner's name.
+        phase_reached: the expert's last phase (``"done"``, ``"lift"``, ``"failed"``, ...),
+            ``"rejected"`` if the scene was refused before an episode.
+        success: the env's ``is_success`` at the end (object lifted in the fingers).
+        steps: env steps; ``sim_time_s``: simulated seconds; ``wall_time_s``: real seconds
+            (``None`` if no episode ran).
+        object_start_pose, object_final_pose: ``[x, y, yaw]`` at reset and at the end.
+        lift_height_m: the object's height above the table at the end;
+            ``max_lift_height_m``: the most during the episode.
+        fell_off: the object fell off the table; ``truncated``: the episode hit its time limit.
+        video: path of the recorded video, if any.
+        expert: the expert's :class:`ExpertReport`.
+    """
+
+    object: str
+    table: str
+    scale: float = 1.0
+    seed: int
+    planner: str
+    success: bool = False
+    expert: ExpertReport = field(default_factory=ExpertReport)
+    phase_reached: str
+    steps: int = 0
+    sim_time_s: float = 0.0
+    wall_time_s: float | None = None
+    object_start_pose: list[float] | None = None
+    object_final_pose: list[float] | None = None
+    lift_height_m: float | None = None
+    max_lift_height_m: float | None = None
+    fell_off: bool = False
+    truncated: bool = False
+    video: str | None = None
+
+    @classmethod
+    def rejected(
+        cls,
+        object: str,  # noqa: A002 - the JSON key
+        table: str,
+        *,
+        seed: int,
+        planner: str,
+        reason: str | Exception,
+        scale: float = 1.0,
+    ) -> EpisodeRecord:
+        """A scene refused before any episode ran (bad name, object too large, ...)."""
+        return cls(
+            object=str(object),
+            table=str(table),
+            scale=float(scale),
+            seed=int(seed),
+            planner=planner,
+            phase_reached="rejected",
+            expert=ExpertReport(planning_time_s=None, failure=str(reason)),
+        )
+
+    def to_json_dict(self) -> dict[str, Any]:
+        """One flat dict of JSON values: this record's fields with the expert's spliced in
+        where ``expert`` stands (the ``slide-gym run --json`` object)."""
+        out: dict[str, Any] = {}
+        for f in dataclasses.fields(self):
+            if f.name == "expert":
+                out.update(dataclasses.asdict(self.expert))
+            else:
+                out[f.name] = _copy(getattr(self, f.name))
+        return out
+
+    @classmethod
+    def from_json_dict(cls, data: dict[str, Any]) -> EpisodeRecord:
+        """The record of a :meth:`to_json_dict` object (other keys, e.g. a job's ``case``,
+        are ignored; keys missing from older files take their defaults)."""
+        mine = {f.name for f in dataclasses.fields(cls)} - {"expert"}
+        theirs = {f.name for f in dataclasses.fields(ExpertReport)}
+        return cls(
+            **{k: v for k, v in data.items() if k in mine},
+            expert=ExpertReport(**{k: v for k, v in data.items() if k in theirs}),
+        )
+
+
+def _copy(value: Any) -> Any:
+    return list(value) if isinstance(value, list) else value

@@ -12,10 +12,9 @@ from typing import Any
 import pytest
 
 from agents import EpisodeRecord, ExpertReport
-from slide_gym import cli
 from slide_gym.bench import execute as bench_execute
 from slide_gym.bench.execute import execute_case, execute_markdown_table, summarize_execute
-from slide_gym.cli import main
+from slide_gym.cli import commands, main
 from slide_gym.geometry import OBJECT_NAMES, TABLE_NAMES
 
 CONTRACT_KEYS = {
@@ -81,7 +80,7 @@ class FakeEpisode:
 @pytest.fixture
 def fake(monkeypatch: pytest.MonkeyPatch) -> FakeEpisode:
     episode = FakeEpisode()
-    monkeypatch.setattr(cli, "_run_episode", lambda: episode)
+    monkeypatch.setattr(commands, "_run_episode", lambda: episode)
     monkeypatch.setattr(bench_execute, "_run_episode", lambda: episode)
     return episode
 

@@ -6,10 +6,12 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
+from agents.params import ExpertParams
 from agents.planner_agent import PlannerAgent
 from agents.record import EpisodeRecord
 from slide_gym.geometry import ObjectShape, TableShape, get_object, get_table
@@ -30,8 +32,14 @@ def run_episode(
     planner: str = "regions",
     time_budget: float = 10.0,
     video: Path | None = None,
+    params: ExpertParams | None = None,
+    **planner_params: Any,
 ) -> EpisodeRecord:
-    """Run the planner agent for one seeded episode; success is the env's ``is_success``."""
+    """Run the planner agent for one seeded episode; success is the env's ``is_success``.
+
+    ``params`` (execution) and ``planner_params`` (:class:`~slide_gym.planning.SlideParams`
+    overrides) go to :class:`~agents.planner_agent.PlannerAgent`.
+    """
     check_time_budget(time_budget)
     if video is not None and Path(video).suffix.lower() not in VIDEO_SUFFIXES:
         raise ValueError(f"video must end in .mp4 or .gif, got {str(video)!r}")
@@ -39,7 +47,15 @@ def run_episode(
     env = gym.make(
         ENV_ID, object=shape, table=table_shape, render_mode="rgb_array" if video else None
     )
-    agent = PlannerAgent(planner, time_budget, seed=seed, objects=[shape], tables=[table_shape])
+    agent = PlannerAgent(
+        planner,
+        time_budget,
+        seed=seed,
+        objects=[shape],
+        tables=[table_shape],
+        params=params,
+        **planner_params,
+    )
     dt = env.unwrapped.dt
     wall = time.perf_counter()
     frames = []

@@ -8,6 +8,7 @@ import pytest
 
 import slide_gym  # noqa: F401 - registers the environments
 from agents.episode import run_episode
+from agents.params import EXPERT_SLIDE_PARAMS, ExpertParams
 from agents.planner_agent import PlannerAgent
 from agents.scene import SceneLibrary
 from agents.trajectory import Segment, time_segment
@@ -15,6 +16,31 @@ from slide_gym.geometry import get_object, get_table
 from slide_gym.robot.kinematics import fingertip_chain
 
 GRASP_ENV = "SlideGym/TopSlideGrasp-v0"
+
+
+@pytest.fixture(scope="module")
+def agent_kwargs(plan_budget, unhurried_params) -> dict:
+    """PlannerAgent settings under which no time cap decides an episode: the first (strict)
+    plan gets ``strict_plan_share`` (half) of the total, i.e. ``plan_budget``; re-aiming the
+    grasp (``ExpertParams.grasp_budget``, 1 s by default) and the fallback transfer planner
+    (``GraspParams.transfer_budget``, 0.25 s) get ``plan_budget`` too. These episodes plan in
+    under 2 s on an idle machine."""
+    return {
+        "time_budget": 2 * plan_budget,
+        "params": ExpertParams(grasp_budget=plan_budget),
+        "grasp": unhurried_params(EXPERT_SLIDE_PARAMS).grasp,
+    }
+
+
+@pytest.fixture(scope="module")
+def episode(agent_kwargs):
+    """``run_episode(obj, table, seed)`` with :func:`agent_kwargs`' time caps, as its
+    ``slide-gym run --json`` dict."""
+
+    def run(obj: str, table: str, seed: int) -> dict:
+        return run_episode(obj, table, seed=seed, **agent_kwargs).to_json_dict()
+
+    return run
 
 
 def test_time_segment_respects_speed_limits_and_ends_on_the_last_waypoint():
@@ -53,9 +79,9 @@ def test_agent_rejects_bad_arguments():
         PlannerAgent("regions", bogus=1)
 
 
-def _rollout(steps: int, seed: int) -> tuple[list[np.ndarray], list[dict]]:
+def _rollout(steps: int, seed: int, agent_kwargs: dict) -> tuple[list[np.ndarray], list[dict]]:
     env = gym.make(GRASP_ENV, object="E", table="square")
-    agent = PlannerAgent("regions", 5.0, seed=seed)
+    agent = PlannerAgent("regions", seed=seed, **agent_kwargs)
     obs_list, actions = [], []
     obs, _ = env.reset(seed=seed)
     for k in range(steps):
@@ -68,9 +94,9 @@ def _rollout(steps: int, seed: int) -> tuple[list[np.ndarray], list[dict]]:
     return actions, obs_list
 
 
-def test_batched_predict_matches_single_predict():
-    actions, observations = _rollout(40, seed=3)
-    batch_agent = PlannerAgent("regions", 5.0, seed=3)
+def test_batched_predict_matches_single_predict(agent_kwargs):
+    actions, observations = _rollout(40, seed=3, agent_kwargs=agent_kwargs)
+    batch_agent = PlannerAgent("regions", seed=3, **agent_kwargs)
     for k, obs in enumerate(observations):
         batch = {key: np.stack([v, v]) for key, v in obs.items()}
         out, _ = batch_agent.predict(batch, episode_start=np.array([k == 0, k == 0]))
@@ -83,7 +109,9 @@ def test_batched_predict_matches_single_predict():
 def test_evaluate_policy_runs_the_agent_on_a_vectorised_env():
     evaluation = pytest.importorskip("stable_baselines3.common.evaluation")
     env = gym.make(GRASP_ENV, object="square", table="square", max_episode_steps=30)
-    agent = PlannerAgent("cbirrt2", 3.0, seed=0)
+    # evaluate_policy resets to random poses; whether a plan comes within this short budget
+    # does not matter here (the agent holds still without one): only the episode loop does.
+    agent = PlannerAgent("cbirrt2", 1.0, seed=0)
     rewards, lengths = evaluation.evaluate_policy(
         agent, env, n_eval_episodes=2, return_episode_rewards=True
     )
@@ -92,10 +120,11 @@ def test_evaluate_policy_runs_the_agent_on_a_vectorised_env():
 
 
 @pytest.fixture(scope="module")
-def e_episode():
-    return run_episode("E", "square", seed=0).to_json_dict()
+def e_episode(episode):
+    return episode("E", "square", 0)
 
 
+@pytest.mark.slow
 def test_expert_lifts_the_object_end_to_end(e_episode):
     r = e_episode
     assert r["success"] and r["planned"] and r["phase_reached"] in ("lift", "done")
@@ -103,24 +132,27 @@ def test_expert_lifts_the_object_end_to_end(e_episode):
     assert r["slide_error_m"] is not None and r["slide_error_m"] < 0.05
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("obj", "table", "seed"), [("square", "long", 1), ("irregular", "round", 0), ("Y", "square", 0)]
 )
-def test_expert_lifts_other_shapes_on_other_tables(obj, table, seed):
-    r = run_episode(obj, table, seed=seed).to_json_dict()
+def test_expert_lifts_other_shapes_on_other_tables(episode, obj, table, seed):
+    r = episode(obj, table, seed)
     assert r["success"], r["events"]
     assert r["object"] == obj and r["table"] == table and r["steps"] <= 1200
 
 
-def test_expert_episode_is_deterministic(e_episode):
-    again = run_episode("E", "square", seed=0).to_json_dict()
+@pytest.mark.slow
+def test_expert_episode_is_deterministic(episode, e_episode):
+    again = episode("E", "square", 0)
     for key in ("success", "steps", "object_final_pose", "slide_error_m", "replans"):
         assert again[key] == e_episode[key], key
 
 
-def test_no_constraint_ties_the_object_and_success_comes_from_the_env():
+@pytest.mark.slow
+def test_no_constraint_ties_the_object_and_success_comes_from_the_env(agent_kwargs):
     env = gym.make(GRASP_ENV, object="E", table="square")
-    agent = PlannerAgent("regions", 5.0, seed=1)
+    agent = PlannerAgent("regions", seed=1, **agent_kwargs)
     obs, info = env.reset(seed=1)
     sim = env.unwrapped.sim
     for k in range(1200):

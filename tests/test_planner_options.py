@@ -11,7 +11,7 @@ import pytest
 import shapely
 
 from slide_gym.geometry import get_object, get_table
-from slide_gym.planning.api import SlideParams, TopSlidePlanner, TopSlideProblem
+from slide_gym.planning.api import SlideParams, TopSlideProblem
 from slide_gym.planning.result import SearchParams
 from slide_gym.planning.search import SearchFunctions
 from slide_gym.planning.smoothing import path_length, shortcut_path
@@ -90,11 +90,9 @@ def test_replanning_accepts_an_overhanging_plate_but_presses_over_the_table():
         TopSlideProblem(obj, table, (0.87, 0.0, 0.0), allow_overhang=True)
 
 
-def test_plate_turn_limit_holds_in_solutions():
+def test_plate_turn_limit_holds_in_solutions(solve_top_slide):
     params = SlideParams(max_rotation=0.3)
-    problem = TopSlideProblem("square", "square", (0.62, 0.05, 0.3), params)
-    with TopSlidePlanner(problem, "regions", 0) as planner:
-        result = planner.solve(10.0)
-    assert result.solved
+    result = solve_top_slide("square", "square", (0.62, 0.05, 0.3), params, "regions", 0)
+    assert result.solved, result.reason
     turn = result.extra["object_goal_pose"][2] - 0.3
     assert abs((turn + math.pi) % (2 * math.pi) - math.pi) <= 0.3 + 1e-9

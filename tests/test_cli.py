@@ -122,7 +122,7 @@ def test_bench_subcommands_have_their_own_options(capsys: pytest.CaptureFixture[
     plan = _help(["bench", "plan"], capsys)
     assert "--steps" not in plan and "--resets" not in plan and "--markdown" not in plan
     assert "--planners" in plan and "(default: 20)" in _words(plan)
-    assert "(default: 10.0 s)" in _words(plan) and "results/bench_plan.jsonl" in plan
+    assert "seconds per query (default: 10.0)" in _words(plan) and "bench_plan.jsonl" in plan
     env = _help(["bench", "env"], capsys)
     assert "--planners" not in env and "--trials" not in env and "--workers" not in env
     assert "(default: 600)" in _words(env)

@@ -59,173 +59,130 @@ def _cmd_bench_execute(args: argparse.Namespace) -> int:
 
 def add_parsers(sub: Any) -> None:
     """``slide-gym bench env|plan|execute``: one subcommand each, with its own options."""
-    from slide_gym.bench import env, execute, plan
-    from slide_gym.geometry import OBJECT_NAMES, TABLE_NAMES
-
     bench = sub.add_parser(
         "bench",
         help="benchmarks: env throughput, planners, expert episodes",
         description="Benchmarks; the README's numbers come from these. Results print as JSON.",
     )
     what = bench.add_subparsers(dest="what", metavar="{env,plan,execute}", required=True)
+    _add_env(what)
+    _add_plan(what)
+    _add_execute(what)
 
-    def common(p: argparse.ArgumentParser, first_seed: str) -> None:
-        p.add_argument("--seed", type=int, default=0, help=f"{first_seed} (default: %(default)s)")
 
-    def jobs(p: argparse.ArgumentParser, out: Path) -> None:
-        p.add_argument(
-            "--workers",
-            type=int,
-            default=None,
-            metavar="N",
-            help="worker processes (default: one per CPU core)",
-        )
-        p.add_argument(
-            "--out",
-            type=Path,
-            default=out,
-            metavar="FILE",
-            help="results JSONL, one line per case as it finishes; a re-run skips finished "
-            "cases, so an interrupted run resumes (default: %(default)s)",
-        )
+class _DefaultsHelp(argparse.ArgumentDefaultsHelpFormatter):
+    """Help lines end with ``(default: ...)``, except options whose default is None."""
 
-    p = what.add_parser(
-        "env",
-        help="environment throughput, real-time factor, overhead and reset time",
-        description="Step SlideGym/TopSlide-v0 with the scripted slider's actions (recorded "
-        "once, replayed), then the same world without observations or rewards; time resets.",
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        return action.help if action.default is None else super()._get_help_string(action)
+
+
+def _parser(what: Any, name: str, help: str, description: str) -> argparse.ArgumentParser:  # noqa: A002
+    """A benchmark subcommand whose help lines end with their defaults."""
+    return what.add_parser(
+        name,
+        help=help,
+        description=description,
+        formatter_class=_DefaultsHelp,
     )
+
+
+def _add_jobs(p: argparse.ArgumentParser, out: Path, first_seed: str) -> None:
+    """Options of the resumable, parallel benchmarks."""
+    p.add_argument("--seed", type=int, default=0, help=first_seed)
     p.add_argument(
-        "--object",
-        default="square",
-        metavar="NAME",
-        help="catalog name or JSON file (default: %(default)s)",
+        "--workers", type=int, metavar="N", help="worker processes (default: one per core)"
     )
-    p.add_argument(
-        "--table",
-        default="square",
-        metavar="NAME",
-        help="catalog name or JSON file (default: %(default)s)",
-    )
-    p.add_argument(
-        "--steps",
-        type=int,
-        default=env.STEPS,
-        metavar="N",
-        help="timed env steps, 50 ms simulated each (default: %(default)s)",
-    )
-    p.add_argument(
-        "--resets",
-        type=int,
-        default=env.RESETS,
-        metavar="N",
-        help="timed resets (default: %(default)s)",
-    )
-    common(p, "reset seed")
     p.add_argument(
         "--out",
         type=Path,
-        default=None,
+        default=out,
         metavar="FILE",
-        help="also append the result as one JSON line here (default: print only)",
+        help="results JSONL, one line per case as it finishes; a re-run skips finished cases, "
+        "so an interrupted run resumes",
+    )
+
+
+def _add_env(what: Any) -> None:
+    from slide_gym.bench import env
+
+    p = _parser(
+        what,
+        "env",
+        "environment throughput, real-time factor, overhead and reset time",
+        "Step SlideGym/TopSlide-v0 with the scripted slider's actions (recorded once, "
+        "replayed), then the same world without observations or rewards; time resets.",
+    )
+    p.add_argument("--object", default="square", metavar="NAME", help="catalog name or JSON file")
+    p.add_argument("--table", default="square", metavar="NAME", help="catalog name or JSON file")
+    p.add_argument("--steps", type=int, default=env.STEPS, metavar="N", help="timed env steps")
+    p.add_argument("--resets", type=int, default=env.RESETS, metavar="N", help="timed resets")
+    p.add_argument("--seed", type=int, default=0, help="reset seed")
+    p.add_argument(
+        "--out", type=Path, metavar="FILE", help="also append the result as one JSON line here"
     )
     p.set_defaults(func=_cmd_bench_env)
 
-    p = what.add_parser(
+
+def _add_plan(what: Any) -> None:
+    from slide_gym.bench import plan
+
+    p = _parser(
+        what,
         "plan",
-        help="the planners' success rate against planning time",
-        description="Plan from seeded random start poses with each planner; print success "
-        "rates at planning-time marks (resumable, runs in parallel).",
+        "the planners' success rate against planning time",
+        "Plan from seeded random start poses with each planner; print success rates at "
+        "planning-time marks (resumable, runs in parallel).",
+    )
+    objects, planners, dz = (",".join(v) for v in (plan.OBJECTS, PLANNERS, map(str, plan.DZ)))
+    p.add_argument("--objects", default=objects, metavar="NAMES", help="comma-separated objects")
+    p.add_argument("--table", default=plan.TABLE, metavar="NAME", help="catalog name or JSON file")
+    p.add_argument(
+        "--planners", default=planners, metavar="NAMES", help=f"comma-separated, from {planners}"
     )
     p.add_argument(
-        "--objects",
-        default=",".join(plan.OBJECTS),
-        metavar="NAMES",
-        help="comma-separated objects (default: %(default)s)",
-    )
-    p.add_argument(
-        "--table",
-        default=plan.TABLE,
-        metavar="NAME",
-        help="catalog name or JSON file (default: %(default)s)",
-    )
-    p.add_argument(
-        "--planners",
-        default=",".join(PLANNERS),
-        metavar="NAMES",
-        help=f"comma-separated, from {', '.join(PLANNERS)} (default: %(default)s)",
-    )
-    p.add_argument(
-        "--trials",
-        type=int,
-        default=plan.TRIALS,
-        metavar="N",
-        help="start poses per object, seeds SEED..SEED+N-1 (default: %(default)s)",
+        "--trials", type=int, default=plan.TRIALS, metavar="N", help="start poses per object"
     )
     p.add_argument(
         "--time-budget",
         type=float,
         default=plan.TIME_BUDGET,
-        metavar="SECONDS",
-        help="planning time per query (default: %(default)s s)",
+        metavar="S",
+        help="planning seconds per query",
     )
+    p.add_argument("--dz", default=dz, metavar="LO,HI", help="contact depth band (m; dZ* = HI-LO)")
+    _add_jobs(p, plan.OUT, "first start-pose seed (trial k uses SEED + k)")
     p.add_argument(
-        "--dz",
-        default=",".join(f"{v:g}" for v in plan.DZ),
-        metavar="LO,HI",
-        help="contact depth relaxation in metres (default: %(default)s m, the paper's dZ* = 2 cm)",
-    )
-    common(p, "first start-pose seed")
-    jobs(p, plan.OUT)
-    p.add_argument(
-        "--plot",
-        type=Path,
-        default=None,
-        metavar="FILE",
-        help="also write a success-against-time figure here (default: none)",
+        "--plot", type=Path, metavar="FILE", help="also write a success-against-time figure here"
     )
     p.set_defaults(func=_cmd_bench_plan)
 
-    p = what.add_parser(
+
+def _add_execute(what: Any) -> None:
+    from slide_gym.bench import execute
+    from slide_gym.geometry import OBJECT_NAMES, TABLE_NAMES
+
+    p = _parser(
+        what,
         "execute",
-        help="the expert's full episodes (slide, grasp, lift) on every object and table",
-        description="Run the planner expert in SlideGym/TopSlideGrasp-v0 for seeded episodes "
-        "per object and table; print lift rates, slide errors and times (resumable, runs in "
-        "parallel).",
+        "the expert's full episodes (slide, grasp, lift) on every object and table",
+        "Run the planner expert in SlideGym/TopSlideGrasp-v0 for seeded episodes per object "
+        "and table; print lift rates, slide errors and times (resumable, runs in parallel).",
     )
+    objects, tables = ",".join(OBJECT_NAMES), ",".join(TABLE_NAMES)
+    p.add_argument("--objects", default=objects, metavar="NAMES", help="comma-separated objects")
+    p.add_argument("--tables", default=tables, metavar="NAMES", help="comma-separated tables")
+    p.add_argument("--planner", choices=PLANNERS, default=execute.PLANNER, help="the planner")
     p.add_argument(
-        "--objects",
-        default=",".join(OBJECT_NAMES),
-        metavar="NAMES",
-        help="comma-separated objects (default: %(default)s)",
-    )
-    p.add_argument(
-        "--tables",
-        default=",".join(TABLE_NAMES),
-        metavar="NAMES",
-        help="comma-separated tables (default: %(default)s)",
-    )
-    p.add_argument(
-        "--planner",
-        choices=PLANNERS,
-        default=execute.PLANNER,
-        help="the expert's planner (default: %(default)s)",
-    )
-    p.add_argument(
-        "--trials",
-        type=int,
-        default=execute.TRIALS,
-        metavar="N",
-        help="episodes per object and table, seeds SEED..SEED+N-1 (default: %(default)s)",
+        "--trials", type=int, default=execute.TRIALS, metavar="N", help="episodes per scene"
     )
     p.add_argument(
         "--time-budget",
         type=float,
         default=execute.TIME_BUDGET,
-        metavar="SECONDS",
-        help="planning time per episode, first plan and replans together (default: %(default)s s)",
+        metavar="S",
+        help="planning seconds per episode, first plan and replans together",
     )
-    common(p, "first episode seed")
-    jobs(p, execute.OUT)
+    _add_jobs(p, execute.OUT, "first episode seed (trial k uses SEED + k)")
     p.add_argument("--markdown", action="store_true", help="print markdown tables, not JSON")
     p.set_defaults(func=_cmd_bench_execute)

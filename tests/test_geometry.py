@@ -146,6 +146,34 @@ def test_overhang_hand_worked() -> None:
     assert not is_graspable(transform_polygon(square, 0.6, 0.27, 0.0), table, 0.03)
 
 
+def test_overhang_is_the_depth_past_the_edge_line_on_the_round_table() -> None:
+    table = TABLES["round"].polygon  # a 100-gon: edges of about 1.8 cm
+    ring = shapely.get_coordinates(table.exterior)
+    square = OBJECTS["square"].polygon  # 10 cm, wider than five edges
+    for k in (0, 17, 42):
+        a, b = ring[k], ring[k + 1]
+        mid, along = (a + b) / 2, (b - a) / np.linalg.norm(b - a)
+        normal = np.array([along[1], -along[0]])  # outward (the ring is counter-clockwise)
+        # The square's outer side parallel to edge k, 2.5 cm past its line.
+        centre = mid + (0.025 - 0.05) * normal
+        out = overhang(transform_polygon(square, *centre, math.atan2(*normal[::-1])), table)
+        np.testing.assert_allclose(out.edge, [a, b])
+        # The distance to the short segment itself (its end points) would be about 5 cm.
+        assert out.u == pytest.approx(0.025)
+        # A convex table's edge line never cuts into it: no depth past the line exceeds the
+        # depth past the table.
+        corners = shapely.points(shapely.get_coordinates(out.outside))
+        assert out.u <= shapely.distance(corners, table).max() + 1e-12
+
+
+def test_overhang_near_a_corner_is_the_depth_past_one_edge() -> None:
+    table = TABLES["square"].polygon  # x in [0.35, 0.85], y in [-0.25, 0.25]
+    square = OBJECTS["square"].polygon  # 10 cm, sticking out 2 cm past +x and 1 cm past +y
+    out = overhang(transform_polygon(square, 0.82, 0.21, 0.0), table)
+    assert out.u == pytest.approx(0.02)
+    assert sorted(out.edge[:, 0]) == pytest.approx([0.85, 0.85])
+
+
 def test_se2_round_trip() -> None:
     rng = np.random.default_rng(0)
     pts = rng.normal(size=(20, 2))

@@ -7,9 +7,12 @@ Conventions (public contract):
 * Polygons are :class:`shapely.Polygon` with the exterior ring counter-clockwise and holes
   clockwise (:func:`make_polygon` normalises either input orientation).
 * A pose ``(x, y, yaw)`` maps a local point ``p`` to ``R(yaw) @ p + (x, y)``.
-* Overhang: ``P_out = object - table``; the table edge is the segment of the table's exterior
-  ring closest to ``P_out``'s centroid and ``u`` is the largest distance from a vertex of
-  ``P_out`` to that segment (0 when ``P_out`` is empty).
+* Overhang (the paper's definition): ``P_out = object - table``; the table edge is the segment
+  of the table's exterior ring closest to ``P_out``'s centroid, and ``u`` is how deep ``P_out``
+  reaches past that edge's *line*: the largest signed distance of a vertex of ``P_out`` beyond
+  the line, along the edge's outward normal (0 when ``P_out`` is empty). Measuring to the line
+  and not to the segment matters on tables with short edges (a many-sided round table) and
+  near corners, where the distance to a segment's end point overstates the depth.
 """
 
 from __future__ import annotations
@@ -273,11 +276,12 @@ def overhang(object_world: shapely.Polygon, table: shapely.Polygon) -> Overhang:
     if outside.is_empty or outside.area < _EMPTY_AREA:
         return Overhang(0.0, None, outside, centroid_inside)
     segments = _ring_segments(table.exterior)
-    lines = shapely.linestrings(segments)
-    k = int(np.argmin(shapely.distance(outside.centroid, lines)))
-    verts = shapely.points(shapely.get_coordinates(outside))
-    u = float(shapely.distance(verts, lines[k]).max())
-    return Overhang(u, segments[k].copy(), outside, centroid_inside)
+    k = int(np.argmin(shapely.distance(outside.centroid, shapely.linestrings(segments))))
+    (ax, ay), (bx, by) = segments[k]
+    length = math.hypot(bx - ax, by - ay)
+    normal = np.array([by - ay, ax - bx]) / length  # outward: the exterior ring is CCW
+    depth = (shapely.get_coordinates(outside) - (ax, ay)) @ normal
+    return Overhang(max(0.0, float(depth.max())), segments[k].copy(), outside, centroid_inside)
 
 
 def is_graspable(object_world: shapely.Polygon, table: shapely.Polygon, u_star: float) -> bool:

@@ -34,7 +34,9 @@ class TaskParams:
     u_star: float = 0.03
     """Minimum overhang (m) for a side grasp: about the fingertip pad's contact length."""
     lift_height: float = 0.05
-    """How far (m) the object's bottom must rise above the table top for a lift."""
+    """How far (m) the object's lowest point must rise above the table top for a lift."""
+    lift_hold_s: float = 1.0
+    """How long (s) a lift must last (held in both fingers, off the table) to succeed."""
     rest_speed: float = 0.01
     """Object speed (m/s) below which it counts as resting."""
     object_friction: float = 0.8
@@ -45,7 +47,8 @@ class TaskParams:
     """Random start poses keep the object this far (m) inside the table outline."""
 
     def __post_init__(self) -> None:
-        for name in ("u_star", "lift_height", "rest_speed", "object_friction", "table_friction"):
+        positive = ("u_star", "lift_height", "lift_hold_s", "rest_speed")
+        for name in (*positive, "object_friction", "table_friction"):
             value = getattr(self, name)
             if not (np.isfinite(value) and value > 0):
                 raise ValueError(f"TaskParams.{name} must be a positive number, got {value}")
@@ -61,10 +64,12 @@ class SceneState:
     centroid_on_table: bool
     graspable: bool
     object_speed: float
-    lift_m: float
+    lift_m: float  # bottom-face centre above the table top
+    clearance_m: float  # the object's lowest point above the table top
     touching_robot: bool
     touching_finger_a: bool
     touching_finger_b: bool
+    touching_table: bool
     fell_off: bool
     object_position: np.ndarray  # (3,) bottom-face centroid, world
     object_quat: np.ndarray  # (4,) xyzw
@@ -168,13 +173,15 @@ class TopSlideTask:
         """Create the table (static) and the object resting on it at ``pose``."""
         self.object, self.table = obj, table
         self._outline = np.asarray(obj.polygon.exterior.coords)[:-1]
+        n, half = len(self._outline), obj.thickness / 2.0
+        rim = np.vstack([np.c_[self._outline, np.full(n, z)] for z in (-half, half)])
+        self._rim = rim.T  # (3, 2n) outline corners in the body frame (centre of mass at 0)
         shapely.prepare(table.polygon)
         self._table_convex = table.polygon.convex_hull.area - table.polygon.area < 1e-12
         self._placement_key: tuple[float, float, float] | None = None
         self._placement_value = (0.0, True, False)
         p = self.params
         add_table_body(sim, table, p.table_friction)
-        half = obj.thickness / 2.0
         sim.create_prism_body(
             "object",
             obj.convex_pieces(),
@@ -207,6 +214,9 @@ class TopSlideTask:
         contacts = sim.contact_points("object", "robot")
         links = {c[4] for c in contacts}
         lift = float(pos[2] - self.table.height)
+        x, y, z, w = quat
+        z_row = np.array([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)])
+        lowest = float((z_row @ self._rim).min()) + pos[2] + self.object.thickness / 2.0
         return SceneState(
             object_pose=(float(pos[0]), float(pos[1]), yaw),
             object_z=float(pos[2]),
@@ -215,9 +225,11 @@ class TopSlideTask:
             graspable=bool(graspable),
             object_speed=float(np.linalg.norm(lin)),
             lift_m=lift,
+            clearance_m=lowest - self.table.height,
             touching_robot=bool(contacts),
             touching_finger_a=bool(links.intersection(finger_a_links)),
             touching_finger_b=bool(links.intersection(finger_b_links)),
+            touching_table=bool(sim.contact_points("object", "table")),
             fell_off=bool(lift < -0.02),
             object_position=pos,
             object_quat=quat,
@@ -245,6 +257,14 @@ class TopSlideTask:
         resting = s.object_speed < self.params.rest_speed and abs(s.lift_m) < 0.005
         return s.graspable and resting and not s.touching_robot
 
-    def grasp_success(self, s: SceneState) -> bool:
-        """Lifted clear of the table and held between the two fingers."""
-        return s.lift_m >= self.params.lift_height and s.touching_finger_a and s.touching_finger_b
+    def lifted(self, s: SceneState) -> bool:
+        """Held between the two fingers, off the table, its lowest point ``lift_height`` up.
+
+        A grasp episode succeeds once this has held for ``lift_hold_s`` (the env counts it).
+        """
+        return (
+            s.clearance_m >= self.params.lift_height
+            and s.touching_finger_a
+            and s.touching_finger_b
+            and not s.touching_table
+        )

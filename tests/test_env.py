@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -16,7 +18,10 @@ INFO_KEYS = {
     "overhang_m",
     "graspable",
     "lift_m",
+    "clearance_m",
+    "lift_held_s",
     "touching_robot",
+    "touching_table",
     "fell_off",
     "object_pose_2d",
 }
@@ -104,6 +109,7 @@ def test_start_pose_is_on_table_and_not_graspable() -> None:
             assert info["overhang_m"] == 0.0
             assert not info["touching_robot"]
             assert abs(info["lift_m"]) < 0.005
+            assert info["touching_table"] and abs(info["clearance_m"]) < 0.002
     finally:
         env.close()
 
@@ -189,5 +195,41 @@ def test_bad_action_and_unknown_option() -> None:
         env.reset(seed=0)
         with pytest.raises(ValueError, match="8 finite"):
             env.step(np.full(8, np.nan))
+    finally:
+        env.close()
+
+
+def test_grasp_success_needs_a_lift_held_for_a_second(monkeypatch: pytest.MonkeyPatch) -> None:
+    env = TopSlideEnv(object="square", table="square", goal="grasp")
+    try:
+        env.reset(seed=0)
+        # Stand in for the physics of a grasp: the task says when the plate is held up.
+        held = iter([True] * 10 + [False] + [True] * 25)
+        monkeypatch.setattr(env.task, "lifted", lambda s: next(held))
+        hold = round(env.task.params.lift_hold_s / env.dt)  # 20 control steps at 20 Hz
+        results = [env.step(np.zeros(8, np.float32)) for _ in range(11 + hold)]
+        infos = [r[4] for r in results]
+        assert not any(i["is_success"] for i in infos[: 10 + hold])  # the drop restarted the count
+        assert infos[-1]["is_success"] and results[-1][2]  # held for 1 s: success terminates
+        assert infos[-1]["lift_held_s"] == pytest.approx(env.task.params.lift_hold_s)
+        assert infos[10]["lift_held_s"] == 0.0
+    finally:
+        env.close()
+
+
+def test_a_plate_touching_the_table_is_not_lifted() -> None:
+    env = TopSlideEnv(object="square", table="square", goal="grasp")
+    try:
+        env.reset(seed=0)
+        s = env.unwrapped._state
+        up = dataclasses.replace(
+            s, clearance_m=0.06, touching_finger_a=True, touching_finger_b=True
+        )
+        assert env.task.lifted(dataclasses.replace(up, touching_table=False))
+        assert not env.task.lifted(up)  # still touching the table (the reset state)
+        assert not env.task.lifted(dataclasses.replace(up, touching_table=False, clearance_m=0.04))
+        assert not env.task.lifted(
+            dataclasses.replace(up, touching_table=False, touching_finger_b=False)
+        )
     finally:
         env.close()

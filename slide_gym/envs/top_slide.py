@@ -98,11 +98,13 @@ class TopSlideEnv(gym.Env):
 
     ## Episode End
     ``goal="slide"`` succeeds when the object rests in a graspable pose (overhang ``u >= u*``
-    from the nearest table edge, centroid still over the table) and the robot no longer touches
-    it. ``goal="grasp"`` succeeds when the object's bottom is at least ``lift_height`` above the
-    table top while touching both fingers. Success terminates the episode; so does the object
-    falling off the table (a failure). Truncation comes from the registered time limit.
-    ``info["is_success"]`` is a Python bool at reset and every step.
+    past the line of the nearest table edge, centroid still over the table) and the robot no
+    longer touches it. ``goal="grasp"`` succeeds when the object has been held for
+    ``lift_hold_s`` (1 s): its lowest point at least ``lift_height`` (5 cm) above the table top,
+    touching both fingers and not the table, at every control step of that second. Success
+    terminates the episode; so does the object falling off the table (a failure). Truncation
+    comes from the registered time limit. ``info["is_success"]`` is a Python bool at reset and
+    every step; ``info["lift_held_s"]`` is how long the current lift has held.
 
     ## Arguments
     - ``object``: a catalog name (see ``slide_gym.OBJECT_NAMES``), a path to a JSON shape, an
@@ -169,6 +171,8 @@ class TopSlideEnv(gym.Env):
         self._arm_target = np.array(READY_ARM_Q, dtype=float)
         self._u = 0.0
         self._state: SceneState | None = None
+        self._lift_steps = 0  # consecutive control steps the object has been held up
+        self._is_success = False
 
         self.action_space = spaces.Box(-1.0, 1.0, (8,), np.float32)
         self.observation_space = self._make_observation_space()
@@ -275,6 +279,8 @@ class TopSlideEnv(gym.Env):
             space["table_outline"].high,
         ).astype(np.float32)
         self._state = self._read_state()
+        self._lift_steps = 0
+        self._is_success = self._success(self._state)
         return self._observation(), self._info(self._state)
 
     @staticmethod
@@ -304,7 +310,8 @@ class TopSlideEnv(gym.Env):
         for _ in range(self.n_substeps):
             self.robot.step_physics()
         s = self._state = self._read_state()
-        success = self._success(s)
+        self._lift_steps = self._lift_steps + 1 if self.task.lifted(s) else 0
+        success = self._is_success = self._success(s)
         reward = self._reward(s, success)
         terminated = success or s.fell_off
         return self._observation(), reward, terminated, False, self._info(s)
@@ -324,7 +331,8 @@ class TopSlideEnv(gym.Env):
     def _success(self, s: SceneState) -> bool:
         if self.goal == "slide":
             return self.task.slide_success(s)
-        return self.task.grasp_success(s)
+        hold = self.task.params.lift_hold_s
+        return self._lift_steps * self.dt >= hold - 1e-9
 
     def _reward(self, s: SceneState, success: bool) -> float:
         if self.reward_type == "sparse":
@@ -339,11 +347,14 @@ class TopSlideEnv(gym.Env):
 
     def _info(self, s: SceneState) -> dict[str, Any]:
         return {
-            "is_success": bool(self._success(s)),
+            "is_success": self._is_success,
             "overhang_m": s.overhang_m,
             "graspable": s.graspable,
             "lift_m": s.lift_m,
+            "clearance_m": s.clearance_m,
+            "lift_held_s": self._lift_steps * self.dt,
             "touching_robot": s.touching_robot,
+            "touching_table": s.touching_table,
             "fell_off": s.fell_off,
             "object_pose_2d": s.object_pose,
         }

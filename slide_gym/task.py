@@ -19,6 +19,7 @@ from slide_gym.geometry import (
     transform_points,
     transform_polygon,
 )
+from slide_gym.geometry.procedural import procedural_object
 from slide_gym.sim import Simulation
 
 REACH_MIN = 0.30
@@ -144,6 +145,27 @@ def sample_start_pose(
         f"could not place object {obj.name!r} on table {table.name!r} within the arm's reach "
         f"in {tries} random tries: the object is too large for this table"
     )
+
+
+PROCEDURAL = "procedural"
+"""The object name that draws a random plate per episode (:mod:`slide_gym.geometry.procedural`)."""
+
+
+def fit_procedural_object(
+    seed: int, table: TableShape, scale: float = 1.0, margin: float = TaskParams.start_margin
+) -> ObjectShape:
+    """Procedural plate ``seed`` scaled by ``scale``, shrunk by 20 % steps until it can lie on
+    ``table`` within the arm's reach (the same seed on the same table: the same plate)."""
+    plate = procedural_object(seed).scaled(scale)
+    rng = np.random.default_rng([int(seed), 0xF17])  # only to test that a start pose exists
+    for _ in range(10):
+        try:
+            check_scene(plate, table)
+            sample_start_pose(plate, table, rng, margin, tries=500)
+            return plate
+        except ValueError:
+            plate = plate.scaled(0.8)
+    raise ValueError(f"procedural plate {seed} does not fit on table {table.name!r}")
 
 
 def add_table_body(sim: Simulation, table: TableShape, friction: float = 0.5) -> int:

@@ -24,6 +24,8 @@ INFO_KEYS = {
     "touching_table",
     "fell_off",
     "object_pose_2d",
+    "object",
+    "table",
 }
 
 

@@ -26,10 +26,12 @@ from slide_gym.robot import (
 )
 from slide_gym.sim import PhysicsParams, Simulation
 from slide_gym.task import (
+    PROCEDURAL,
     SceneState,
     TaskParams,
     TopSlideTask,
     check_scene,
+    fit_procedural_object,
     sample_start_pose,
     validate_start_pose,
 )
@@ -108,7 +110,10 @@ class TopSlideEnv(gym.Env):
 
     ## Arguments
     - ``object``: a catalog name (see ``slide_gym.OBJECT_NAMES``), a path to a JSON shape, an
-      ``ObjectShape``, or ``"random"`` (a catalog object drawn each episode).
+      ``ObjectShape``, ``"random"`` (a catalog object drawn each episode) or ``"procedural"``
+      (a generated plate, 4-30 cm across, 0.5-6 mm thick, convex or not, with or without
+      holes: the plate of the reset seed, or of a seed drawn from the env's generator;
+      shrunk if needed to fit the table; ``info["object"]`` names it).
     - ``table``: likewise with ``slide_gym.TABLE_NAMES``.
     - ``scale``: object scale factor (> 0).
     - ``goal``: ``"slide"`` or ``"grasp"``; ``reward_type``: ``"sparse"`` or ``"dense"``.
@@ -193,9 +198,10 @@ class TopSlideEnv(gym.Env):
     # ------------------------------------------------------------------ set-up
     @staticmethod
     def _resolve(kind: str, spec: Any, names: tuple[str, ...], load: Any) -> Any:
-        """Validate at construction; keep ``"random"`` to draw a catalog shape per episode."""
-        if isinstance(spec, str) and spec == "random":
-            return "random"
+        """Validate at construction; keep ``"random"`` (a catalog shape per episode) and, for
+        objects, ``"procedural"`` (a generated plate per episode)."""
+        if isinstance(spec, str) and (spec == "random" or (kind, spec) == ("object", PROCEDURAL)):
+            return spec
         if spec is None:
             raise ValueError(f"{kind} must be one of {', '.join(names)}, 'random' or a .json path")
         return load(spec)
@@ -234,18 +240,23 @@ class TopSlideEnv(gym.Env):
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         super().reset(seed=seed)
         options = dict(options or {})
+        p = self.task.params
         unknown = set(options) - {"object_pose", "arm_qpos"}
         if unknown:
             raise ValueError(
                 f"unknown reset options {sorted(unknown)}; allowed: object_pose, arm_qpos"
             )
-        obj = self._pick(self._object_spec, OBJECT_NAMES, lambda s: get_object(s, self.scale))
         table = self._pick(self._table_spec, TABLE_NAMES, get_table)
+        if self._object_spec == PROCEDURAL:
+            plate_seed = seed if seed is not None else int(self.np_random.integers(2**31))
+            obj = fit_procedural_object(plate_seed, table, self.scale, p.start_margin)
+        else:
+            obj = self._pick(self._object_spec, OBJECT_NAMES, lambda s: get_object(s, self.scale))
         check_scene(obj, table)
         if options.get("object_pose") is not None:
             pose = validate_start_pose(obj, table, options["object_pose"])
         else:
-            pose = sample_start_pose(obj, table, self.np_random, self.task.params.start_margin)
+            pose = sample_start_pose(obj, table, self.np_random, p.start_margin)
         arm_q = np.array(READY_ARM_Q, dtype=float)
         if options.get("arm_qpos") is not None:
             arm_q = np.asarray(options["arm_qpos"], dtype=float).reshape(-1)
@@ -285,6 +296,8 @@ class TopSlideEnv(gym.Env):
 
     @staticmethod
     def _candidates(spec: Any, names: tuple[str, ...], load: Any) -> list[Any]:
+        if spec == PROCEDURAL:
+            return []  # drawn per episode, shrunk to fit the table
         return [load(n) for n in names] if spec == "random" else [spec]
 
     def _pick(self, spec: Any, names: tuple[str, ...], load: Any) -> Any:
@@ -357,6 +370,8 @@ class TopSlideEnv(gym.Env):
             "touching_table": s.touching_table,
             "fell_off": s.fell_off,
             "object_pose_2d": s.object_pose,
+            "object": self.task.object.name,
+            "table": self.task.table.name,
         }
 
     def _observation(self) -> dict[str, np.ndarray]:

@@ -286,3 +286,32 @@ def test_bench_execute_rejects_bad_input(
     assert main(["bench", "execute", "--trials", "0", "--out", out]) == 2
     assert main(["bench", "execute", "--time-budget", "0", "--out", out]) == 2
     assert fake.calls == []
+
+
+def test_failures_are_counted_by_cause_without_their_numbers() -> None:
+    from slide_gym.bench.execute import failure_kind
+
+    base = {"success": False, "fell_off": False, "truncated": False, "phase_reached": "failed"}
+    rows = [
+        {**base, "failure": "planner: time budget exhausted after 63 iterations (24 start)"},
+        {**base, "failure": "planner: time budget exhausted after 86 iterations (35 start)"},
+        {**base, "phase_reached": "slide", "fell_off": True, "failure": None},
+        {**base, "phase_reached": "lift_off", "truncated": True, "failure": None},
+        {**base, "success": True, "failure": None},
+    ]
+    assert [failure_kind(r) for r in rows] == [
+        "planner: time budget exhausted",
+        "planner: time budget exhausted",
+        "the plate fell off the table (slide)",
+        "out of episode time (lift_off)",
+        None,
+    ]
+    summary = summarize_execute(
+        [{**r, "object": "E", "table": "square", "planner": "regions"} for r in rows]
+    )
+    assert summary["failures"] == {
+        "planner: time budget exhausted": 2,
+        "the plate fell off the table (slide)": 1,
+        "out of episode time (lift_off)": 1,
+    }
+    assert "| planner: time budget exhausted | 2 |" in execute_markdown_table(summary)

@@ -8,6 +8,8 @@ Each result row is an :class:`agents.record.EpisodeRecord` as JSON (the ``slide-
 from __future__ import annotations
 
 import math
+import re
+from collections import Counter
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -127,6 +129,27 @@ def _group(rows: Sequence[dict[str, Any]], key: str, order: Sequence[str]) -> di
     return groups
 
 
+def failure_kind(row: dict[str, Any]) -> str | None:
+    """A failed episode's cause without its numbers, for counting (None for a success)."""
+    if row.get("success"):
+        return None
+    phase = row.get("phase_reached")
+    if row.get("fell_off"):
+        return f"the plate fell off the table ({phase})"
+    failure = row.get("failure")
+    if failure:
+        failure = re.sub(r" after \d+ iterations.*| \(.*\)$", "", str(failure))
+        return re.sub(r"\d+(\.\d+)?", "N", failure)
+    if row.get("truncated"):
+        return f"out of episode time ({phase})"
+    return f"ended without a lift ({phase})"
+
+
+def _failures(rows: Sequence[dict[str, Any]]) -> dict[str, int]:
+    kinds = Counter(k for k in map(failure_kind, rows) if k is not None)
+    return dict(kinds.most_common())
+
+
 def summarize_execute(results: Sequence[dict[str, Any]]) -> dict[str, Any]:
     """Lift (success) and planned rates, wall times, slide errors, per object and per table.
 
@@ -135,6 +158,7 @@ def summarize_execute(results: Sequence[dict[str, Any]]) -> dict[str, Any]:
     from slide_gym.geometry import OBJECT_NAMES, TABLE_NAMES
 
     walls = _present(results, "wall_time_s")
+    sims = _present(results, "sim_time_s")
     error_rad = _median(_present(results, "slide_error_rad"))
     return {
         "benchmark": "execute",
@@ -144,11 +168,13 @@ def summarize_execute(results: Sequence[dict[str, Any]]) -> dict[str, Any]:
         "planned_rate": _rate(results, "planned"),
         "wall_time_s_median": _median(walls),
         "wall_time_s_p90": float(np.percentile(walls, 90)) if walls else None,
+        "sim_time_s_median": _median(sims),
         "slide_error_m_median": _median(_present(results, "slide_error_m")),
         "slide_error_rad_median": error_rad,
         "slide_error_deg_median": _scaled(error_rad, 180.0 / math.pi),
         "by_object": _group(results, "object", OBJECT_NAMES),
         "by_table": _group(results, "table", TABLE_NAMES),
+        "failures": _failures(results),
     }
 
 
@@ -157,13 +183,14 @@ def _fmt(value: float | None, spec: str, suffix: str = "") -> str:
 
 
 def execute_markdown_table(summary: dict[str, Any]) -> str:
-    """An overall line and two markdown tables (per object, per table) of a summary."""
+    """An overall line and markdown tables: per object, per table, and the failures."""
     lines = [
         f"**Overall** ({', '.join(summary['planners']) or 'no'} planner): {summary['n']} "
         f"episodes, lifted {_fmt(_scaled(summary['success_rate'], 100.0), '.0f', '%')}, "
         f"planned {_fmt(_scaled(summary['planned_rate'], 100.0), '.0f', '%')}, "
         f"wall median {_fmt(summary['wall_time_s_median'], '.1f', ' s')} "
-        f"(p90 {_fmt(summary['wall_time_s_p90'], '.1f', ' s')}), slide error median "
+        f"(p90 {_fmt(summary['wall_time_s_p90'], '.1f', ' s')}), simulated median "
+        f"{_fmt(summary['sim_time_s_median'], '.1f', ' s')}, slide error median "
         f"{_fmt(_scaled(summary['slide_error_m_median'], 100.0), '.1f', ' cm')} / "
         f"{_fmt(summary['slide_error_deg_median'], '.1f', ' deg')}",
     ]
@@ -181,4 +208,7 @@ def execute_markdown_table(summary: dict[str, Any]) -> str:
                 f"| {_fmt(row['slide_error_deg_median'], '.1f')} "
                 f"| {_fmt(row['wall_time_s_median'], '.1f')} |"
             )
+    if summary["failures"]:
+        lines += ["", "| failure (phase) | episodes |", "|---|---:|"]
+        lines += [f"| {kind} | {n} |" for kind, n in summary["failures"].items()]
     return "\n".join(lines) + "\n"

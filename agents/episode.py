@@ -14,8 +14,9 @@ import numpy as np
 from agents.params import ExpertParams
 from agents.planner_agent import PlannerAgent
 from agents.record import EpisodeRecord
-from slide_gym.geometry import ObjectShape, TableShape, get_object, get_table
+from slide_gym.geometry import ObjectShape, TableShape, get_table
 from slide_gym.planning.result import check_time_budget
+from slide_gym.task import scene_object
 
 ENV_ID = "SlideGym/TopSlideGrasp-v0"
 VIDEO_SUFFIXES = (".mp4", ".gif")
@@ -32,18 +33,30 @@ def run_episode(
     planner: str = "regions",
     time_budget: float = 10.0,
     video: Path | None = None,
+    thickness: float | None = None,
     params: ExpertParams | None = None,
     **planner_params: Any,
 ) -> EpisodeRecord:
     """Run the planner agent for one seeded episode; success is the env's ``is_success``.
 
+    ``object`` may be ``"procedural"`` (the plate of ``seed``); ``thickness`` (m) overrides the
+    object's.
+
     ``params`` (execution) and ``planner_params`` (:class:`~slide_gym.planning.SlideParams`
     overrides) go to :class:`~agents.planner_agent.PlannerAgent`.
     """
     check_time_budget(time_budget)
-    if video is not None and Path(video).suffix.lower() not in VIDEO_SUFFIXES:
-        raise ValueError(f"video must end in .mp4 or .gif, got {str(video)!r}")
-    shape, table_shape = get_object(object, scale), get_table(table)
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
+    if video is not None:  # checked up front: the episode takes a minute
+        if Path(video).suffix.lower() not in VIDEO_SUFFIXES:
+            raise ValueError(f"video must end in .mp4 or .gif, got {str(video)!r}")
+        if not Path(video).parent.is_dir():
+            raise ValueError(
+                f"video: folder {str(Path(video).parent)!r} does not exist (for {str(video)!r})"
+            )
+    table_shape = get_table(table)
+    shape = scene_object(object, table_shape, seed=seed, scale=scale, thickness=thickness)
     env = gym.make(
         ENV_ID, object=shape, table=table_shape, render_mode="rgb_array" if video else None
     )

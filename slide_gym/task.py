@@ -5,6 +5,7 @@ The task knows nothing about actions; the environment joins it with the robot.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -14,6 +15,7 @@ from shapely.geometry import Point, Polygon
 from slide_gym.geometry import (
     ObjectShape,
     TableShape,
+    get_object,
     overhang,
     quat_yaw,
     transform_points,
@@ -166,6 +168,23 @@ def fit_procedural_object(
         except ValueError:
             plate = plate.scaled(0.8)
     raise ValueError(f"procedural plate {seed} does not fit on table {table.name!r}")
+
+
+def scene_object(
+    spec: str | ObjectShape,
+    table: TableShape,
+    *,
+    seed: int = 0,
+    scale: float = 1.0,
+    thickness: float | None = None,
+) -> ObjectShape:
+    """The object of a scene: a catalog name, JSON path or shape, or ``"procedural"`` (the
+    plate of ``seed``, fitted to ``table``); scaled, and with ``thickness`` (m) if given."""
+    if isinstance(spec, str) and spec == PROCEDURAL:
+        obj = fit_procedural_object(seed, table, scale)
+    else:
+        obj = get_object(spec, scale)
+    return obj if thickness is None else dataclasses.replace(obj, thickness=thickness)
 
 
 def add_table_body(sim: Simulation, table: TableShape, friction: float = 0.5) -> int:

@@ -110,3 +110,26 @@ def test_bench_execute_resumes_through_the_one_key(
     assert CALLS == [0, 1, 2] and summary["n"] == 3
     other = execute.bench_execute(["L"], ["square"], trials=1, out=out, planner="cbirrt", workers=1)
     assert CALLS == [0, 1, 2, 0] and other["n"] == 1 and other["planners"] == ["cbirrt"]
+
+
+def test_bench_execute_spreads_procedural_plates_over_the_tables(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    calls: list[tuple[str, str, int, float, float | None]] = []
+
+    def episode(obj: str, table: str, *, seed: int, planner: str, **kw: Any) -> EpisodeRecord:
+        calls.append((obj, table, seed, kw["scale"], kw["thickness"]))
+        return EpisodeRecord(
+            object=obj, table=table, seed=seed, planner=planner, phase_reached="done"
+        )
+
+    monkeypatch.setattr(execute, "_run_episode", lambda: episode)
+    tables = ["square", "round"]
+    out = tmp_path / "execute.jsonl"
+    execute.bench_execute(["procedural", "E"], tables, trials=2, out=out, workers=1, scale=0.5)
+    plates = sorted((seed, table) for obj, table, seed, *_ in calls if obj == "procedural")
+    assert plates == [(0, "square"), (1, "round"), (2, "square"), (3, "round")]
+    assert sorted(seed for obj, _, seed, *_ in calls if obj == "E") == [0, 0, 1, 1]
+    assert {(s, t) for *_, s, t in calls} == {(0.5, None)}
+    execute.bench_execute(["E"], ["square"], trials=1, out=out, workers=1, thickness=0.0008)
+    assert calls[-1] == ("E", "square", 0, 1.0, 0.0008)  # another case: it ran

@@ -51,10 +51,17 @@ def execute_case(case: dict[str, Any]) -> dict[str, Any]:
             seed=case["seed"],
             planner=case["planner"],
             time_budget=case["time_budget"],
+            scale=case.get("scale", 1.0),
+            thickness=case.get("thickness"),
         )
     except ValueError as err:
         record = EpisodeRecord.rejected(
-            case["object"], case["table"], seed=case["seed"], planner=case["planner"], reason=err
+            case["object"],
+            case["table"],
+            seed=case["seed"],
+            planner=case["planner"],
+            reason=err,
+            scale=case.get("scale", 1.0),
         )
     return record.to_json_dict()
 
@@ -68,11 +75,20 @@ def bench_execute(
     time_budget: float = TIME_BUDGET,
     workers: int | None = None,
     seed: int = 0,
+    scale: float = 1.0,
+    thickness: float | None = None,
 ) -> dict[str, Any]:
-    """Run ``trials`` seeded episodes per object and table (resumable: results go to ``out``)."""
+    """Run ``trials`` seeded episodes per object and table (resumable: results go to ``out``).
+
+    Episode ``i`` of a catalog object uses seed ``seed + i`` on every table. Procedural plates
+    are not repeated across tables: table ``k`` of ``T`` gets the plates of seeds
+    ``seed + k + T * i``, so ``--objects procedural --trials 50`` runs 200 different plates
+    on the 4 tables. ``scale`` and ``thickness`` (m) apply to every object.
+    """
     from slide_gym.geometry import get_object, get_table
     from slide_gym.planning.result import check_time_budget
     from slide_gym.planning.search import PLANNERS
+    from slide_gym.task import PROCEDURAL
 
     time_budget = check_time_budget(time_budget)
     if trials < 1:
@@ -82,14 +98,26 @@ def bench_execute(
     if not objects or not tables:
         raise ValueError("need at least one object and one table")
     for name in objects:
-        get_object(name)
+        if name != PROCEDURAL:
+            get_object(name, scale)
     for name in tables:
         get_table(name)
+    extra = {"scale": float(scale)} if scale != 1.0 else {}
+    if thickness is not None:
+        extra["thickness"] = float(thickness)
+    n = len(tables)
     cases = [
-        {"object": o, "table": t, "seed": seed + i, "planner": planner, "time_budget": time_budget}
+        {
+            "object": o,
+            "table": t,
+            "seed": seed + (k + n * i if o == PROCEDURAL else i),
+            "planner": planner,
+            "time_budget": time_budget,
+            **extra,
+        }
         for i in range(trials)
         for o in objects
-        for t in tables
+        for k, t in enumerate(tables)
     ]
     return summarize_execute(run_cases(execute_case, cases, out, workers, desc="execute"))
 

@@ -25,27 +25,34 @@ _LIBC = ctypes.CDLL(None)
 
 
 @contextlib.contextmanager
-def silenced_stdout() -> Iterator[None]:
-    """Send file descriptor 1 to /dev/null: PyBullet's C code prints banners and URDF
-    merge logs there, which would corrupt the JSON that ``slide-gym ... --json`` prints."""
+def silenced_stdout(fds: tuple[int, ...] = (1,)) -> Iterator[None]:
+    """Send file descriptor 1 (and any other ``fds``) to /dev/null: PyBullet's C code prints
+    banners and URDF merge logs there, which would corrupt the JSON that ``slide-gym ...
+    --json`` prints (and the one-line errors on stderr)."""
     sys.stdout.flush()
-    saved = os.dup(1)
+    sys.stderr.flush()
+    saved = [os.dup(fd) for fd in fds]
     devnull = os.open(os.devnull, os.O_WRONLY)
     try:
-        os.dup2(devnull, 1)
+        for fd in fds:
+            os.dup2(devnull, fd)
         yield
     finally:
         _LIBC.fflush(None)  # C stdio buffers what it printed; drop it while still silenced
-        os.dup2(saved, 1)
-        os.close(saved)
+        for fd, copy in zip(fds, saved, strict=True):
+            os.dup2(copy, fd)
+            os.close(copy)
         os.close(devnull)
 
 
-with silenced_stdout():
+with silenced_stdout((1, 2)):  # the import prints its build-time banner on stderr
     import pybullet as pb
     from pybullet_utils.bullet_client import BulletClient
 
 _MESH_CACHE = Path(tempfile.gettempdir()) / "slide_gym_meshes"
+RENDER_MODES: tuple[str | None, ...] = (None, "rgb_array", "human")
+MAX_IMAGE_SIDE = 4096
+"""Largest image width or height (pixels) that :meth:`Simulation.render` accepts."""
 
 
 @dataclass(frozen=True)
@@ -69,11 +76,13 @@ class Simulation:
     """One PyBullet world. Bodies are created and looked up by name.
 
     Args:
-        render_mode: ``None`` or ``"rgb_array"`` (headless, DIRECT) or ``"human"`` (GUI).
+        render_mode: ``None`` or ``"rgb_array"`` (headless, DIRECT) or ``"human"`` (GUI; a
+            ValueError on a machine without a display, see :func:`check_render_mode`).
         physics: engine settings.
     """
 
     def __init__(self, render_mode: str | None = None, physics: PhysicsParams | None = None):
+        check_render_mode(render_mode)
         self.physics = physics or PhysicsParams()
         self.render_mode = render_mode
         mode = pb.GUI if render_mode == "human" else pb.DIRECT
@@ -142,15 +151,20 @@ class Simulation:
         ``pieces`` are (k, 2) convex vertex arrays in the body frame; each becomes a prism
         spanning ``z_bottom .. z_top``. The body frame is its centre of mass, so place the
         pieces around the origin. ``mass == 0`` makes a static body (a table).
+
+        Any number of pieces works: they go to PyBullet as one OBJ file with one object per
+        piece, which ``createCollisionShape`` turns into one compound of convex hulls (the
+        same compound, child for child, as ``createCollisionShapeArray`` builds from one
+        file per piece) and ``createVisualShape`` into one coloured mesh. The array calls
+        are not used because PyBullet 3.2.7 keeps only their first 16 shapes (its
+        ``MAX_COMPOUND_COLLISION_SHAPES``) without a word, and ``createVisualShapeArray``
+        with ``rgbaColors`` for more than 16 shapes ends the process (segfault).
         """
         c = self.client
-        files = [str(_prism_obj_file(np.asarray(p, dtype=float), z_bottom, z_top)) for p in pieces]
-        n = len(files)
+        path = str(_prisms_obj_file(_check_pieces(pieces, name), z_bottom, z_top))
         with silenced_stdout():  # PyBullet's mesh loader prints a banner
-            col = c.createCollisionShapeArray(shapeTypes=[pb.GEOM_MESH] * n, fileNames=files)
-            vis = c.createVisualShapeArray(
-                shapeTypes=[pb.GEOM_MESH] * n, fileNames=files, rgbaColors=[list(rgba)] * n
-            )
+            col = c.createCollisionShape(pb.GEOM_MESH, fileName=path)
+            vis = c.createVisualShape(pb.GEOM_MESH, fileName=path, rgbaColor=list(rgba))
         body = c.createMultiBody(
             baseMass=mass,
             baseCollisionShapeIndex=col,
@@ -207,6 +221,11 @@ class Simulation:
         pitch: float = -30.0,
     ) -> np.ndarray:
         """An RGB image (height, width, 3) uint8 from the TinyRenderer (works headless)."""
+        for what, value in (("width", width), ("height", height)):
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+                raise ValueError(f"image {what} must be a whole number of pixels, got {value!r}")
+            if not 1 <= value <= MAX_IMAGE_SIDE:
+                raise ValueError(f"image {what} must be 1..{MAX_IMAGE_SIDE} pixels, got {value}")
         c = self.client
         view = c.computeViewMatrixFromYawPitchRoll(list(target), distance, yaw, pitch, 0.0, 2)
         proj = c.computeProjectionMatrixFOV(45.0, width / height, 0.05, 10.0)
@@ -216,18 +235,65 @@ class Simulation:
         return np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3].copy()
 
 
-def _prism_obj_file(piece: np.ndarray, z_bottom: float, z_top: float) -> Path:
-    """Write (once, cached by content) an OBJ file of a convex prism; return its path."""
-    k = len(piece)
-    bottom = np.column_stack([piece, np.full(k, z_bottom)])
-    top = np.column_stack([piece, np.full(k, z_top)])
-    lines = [f"v {x:.9g} {y:.9g} {z:.9g}" for x, y, z in np.vstack([bottom, top])]
-    faces = [[1, *range(k, 1, -1)], list(range(k + 1, 2 * k + 1))]  # bottom down, top up
-    faces += [[i + 1, (i + 1) % k + 1, (i + 1) % k + k + 1, i + k + 1] for i in range(k)]
-    lines += ["f " + " ".join(map(str, f)) for f in faces]
+def check_render_mode(render_mode: str | None) -> None:
+    """ValueError unless ``render_mode`` is None, ``"rgb_array"``, or ``"human"`` with a
+    display to open a window on (PyBullet's GUI would otherwise end the whole process)."""
+    if render_mode not in RENDER_MODES:
+        raise ValueError(f"render_mode must be None, 'rgb_array' or 'human', got {render_mode!r}")
+    if render_mode == "human" and not has_display():
+        raise ValueError(
+            "render_mode='human' opens a window, but this machine has no display (neither "
+            "DISPLAY nor WAYLAND_DISPLAY is set); use render_mode='rgb_array' to render "
+            "headless"
+        )
+
+
+def has_display() -> bool:
+    """False on Linux (and other X11 systems) without DISPLAY or WAYLAND_DISPLAY; macOS and
+    Windows always have one."""
+    if sys.platform in ("darwin", "win32", "cygwin"):
+        return True
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+def _check_pieces(pieces: Sequence[np.ndarray], name: str) -> list[np.ndarray]:
+    """The pieces as finite (k >= 3, 2) float arrays, or a ValueError naming the body."""
+    out = []
+    for i, piece in enumerate(pieces):
+        try:
+            arr = np.asarray(piece, dtype=float)
+        except (TypeError, ValueError):
+            arr = np.empty((0, 0))
+        if arr.ndim != 2 or arr.shape[0] < 3 or arr.shape[1] != 2 or not np.isfinite(arr).all():
+            raise ValueError(
+                f"body {name!r}: piece {i} must be a finite (k >= 3, 2) array of x, y vertices"
+            )
+        out.append(arr)
+    if not out:
+        raise ValueError(f"body {name!r}: needs at least one convex piece")
+    return out
+
+
+def _prisms_obj_file(pieces: Sequence[np.ndarray], z_bottom: float, z_top: float) -> Path:
+    """Write (once, cached by content) an OBJ file with one object (``o`` line) per convex
+    piece, each a prism from ``z_bottom`` to ``z_top``; return its path."""
+    if not (np.isfinite(z_bottom) and np.isfinite(z_top) and z_bottom < z_top):
+        raise ValueError(f"prism needs finite z_bottom < z_top, got {z_bottom}, {z_top}")
+    lines: list[str] = []
+    first = 1  # OBJ vertex indices are 1-based and global over the file
+    for n, piece in enumerate(pieces):
+        k = len(piece)
+        bottom = np.column_stack([piece, np.full(k, z_bottom)])
+        top = np.column_stack([piece, np.full(k, z_top)])
+        lines.append(f"o piece{n}")
+        lines += [f"v {x:.9g} {y:.9g} {z:.9g}" for x, y, z in np.vstack([bottom, top])]
+        faces = [[0, *range(k - 1, 0, -1)], list(range(k, 2 * k))]  # bottom down, top up
+        faces += [[i, (i + 1) % k, (i + 1) % k + k, i + k] for i in range(k)]
+        lines += ["f " + " ".join(str(first + v) for v in f) for f in faces]
+        first += 2 * k
     text = "\n".join(lines) + "\n"
     digest = hashlib.sha1(text.encode()).hexdigest()[:20]
-    path = _MESH_CACHE / f"prism_{digest}.obj"
+    path = _MESH_CACHE / f"prisms_{digest}.obj"
     if not path.exists():
         _MESH_CACHE.mkdir(parents=True, exist_ok=True)
         tmp = path.with_suffix(f".{os.getpid()}.tmp")

@@ -2,6 +2,12 @@
 
 from __future__ import annotations
 
+import json
+import os
+import subprocess
+import sys
+import textwrap
+
 import numpy as np
 
 from slide_gym.geometry import TableShape
@@ -39,3 +45,41 @@ def test_close_twice_is_safe() -> None:
     sim = Simulation()
     sim.close()
     sim.close()
+
+
+_MANY_PIECES = textwrap.dedent(
+    """
+    import json
+    import numpy as np
+    from slide_gym.sim import Simulation
+
+    sim = Simulation("rgb_array")
+    pieces = [
+        np.array([[x, y], [x + 0.006, y], [x + 0.006, y + 0.006], [x, y + 0.006]])
+        for x in np.arange(20) * 0.01 for y in np.arange(15) * 0.01
+    ]  # 300 squares, 4 mm apart (PyBullet's collision margin is 1 mm)
+    body = sim.create_prism_body("grid", pieces, 0.0, 0.003, mass=0.1, position=(0.5, 0, 0))
+    c = sim.client
+    def hit(x, y):
+        return c.rayTest([0.5 + x, y, 0.1], [0.5 + x, y, -0.1])[0][0] == body
+    print(json.dumps({
+        "children": len(c.getCollisionShapeData(body, -1)),
+        "last_piece_hit": hit(0.193, 0.143),
+        "gap_hit": hit(0.098, 0.073),
+        "image": list(sim.render(64, 48).shape),
+    }))
+    sim.close()
+    """
+)
+
+
+def test_a_body_takes_any_number_of_pieces() -> None:
+    """PyBullet's array calls keep 16 shapes (and segfault with colours past 16): 300 pieces
+    must all collide and render. In a subprocess, so a crash fails instead of killing pytest."""
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    proc = subprocess.run(
+        [sys.executable, "-c", _MANY_PIECES], capture_output=True, text=True, env=env
+    )
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert out == {"children": 300, "last_piece_hit": True, "gap_hit": False, "image": [48, 64, 3]}

@@ -11,6 +11,7 @@ import sys
 from collections.abc import Sequence
 
 from slide_gym.cli import bench, commands
+from slide_gym.cli.args import check_seed
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -27,12 +28,14 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
+        if getattr(args, "seed", None) is not None:  # every subcommand's --seed
+            check_seed(args.seed)
         return int(args.func(args))
     except ValueError as err:
         command = " ".join(c for c in (args.command, getattr(args, "what", None)) if c)
-        print(f"slide-gym {command}: error: {err}", file=sys.stderr)
+        message = " ".join(str(err).split())  # always one line
+        print(f"slide-gym {command}: error: {message}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
-

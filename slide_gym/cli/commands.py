@@ -10,11 +10,16 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from slide_gym.cli.args import or_na, parse_floats
+from slide_gym.cli.args import check_output, or_na, parse_floats
 from slide_gym.planning.search import PLANNERS
 
 if TYPE_CHECKING:  # agents builds on slide_gym: imported on use only
     from agents.record import EpisodeRecord
+
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg")
+"""What ``render --out`` writes."""
+VIDEO_SUFFIXES = (".gif", ".mp4")
+"""What ``demo --out`` and ``run --video`` write."""
 
 
 def _cmd_shapes(args: argparse.Namespace) -> int:
@@ -45,7 +50,12 @@ def _cmd_render(args: argparse.Namespace) -> int:
     import imageio.v3 as iio
 
     from slide_gym.envs.top_slide import TopSlideEnv
+    from slide_gym.sim import MAX_IMAGE_SIDE
 
+    check_output(args.out, IMAGE_SUFFIXES, "--out")
+    for option, value in (("--width", args.width), ("--height", args.height)):
+        if not 1 <= value <= MAX_IMAGE_SIDE:
+            raise ValueError(f"{option} must be 1..{MAX_IMAGE_SIDE} pixels, got {value}")
     env = TopSlideEnv(
         object=args.object, table=args.table, scale=args.scale, render_mode="rgb_array"
     )
@@ -62,6 +72,8 @@ def _cmd_render(args: argparse.Namespace) -> int:
 def _cmd_demo(args: argparse.Namespace) -> int:
     from agents.scripted import run_demo
 
+    if args.out is not None:
+        check_output(args.out, VIDEO_SUFFIXES, "--out")
     summary = run_demo(args.object, args.table, seed=args.seed, out=args.out)
     print(json.dumps(summary, indent=2))
     return 0
@@ -108,6 +120,8 @@ def _run_episode() -> Callable[..., EpisodeRecord]:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
+    if args.video is not None:
+        check_output(args.video, VIDEO_SUFFIXES, "--video")
     r = _run_episode()(
         args.object,
         args.table,

@@ -23,6 +23,7 @@ import shapely
 from slide_gym.geometry.shapes import (
     ObjectShape,
     TableShape,
+    closest,
     load_object_json,
     load_table_json,
 )
@@ -112,8 +113,11 @@ def _check_scale(scale: float) -> float:
 
 
 def _unknown(kind: str, spec: str, names: tuple[str, ...]) -> ValueError:
+    near = closest(spec, names)
+    hint = f"did you mean {near!r}? " if near is not None else ""
     return ValueError(
-        f"unknown {kind} {spec!r}; valid names: {', '.join(names)} (or a path to a .json file)"
+        f"unknown {kind} {spec!r}; {hint}valid names: {', '.join(names)} "
+        "(or a path to a .json file)"
     )
 
 

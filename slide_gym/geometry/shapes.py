@@ -14,11 +14,18 @@ Conventions (public contract):
 * JSON, in metres. Object: ``{"name": str, "vertices": [[x, y], ...],
   "holes": [[[x, y], ...], ...], "thickness": m}`` ("holes", "thickness" and "density"
   optional). Table: ``{"name": str, "vertices": [[x, y], ...], "height": m}``
-  ("slab_thickness" optional). Vertices may be listed in either orientation.
+  ("slab_thickness" optional). Vertices may be listed in either orientation. Any other key
+  is an error that names the closest valid one (``OBJECT_KEYS``, ``TABLE_KEYS``).
+* Bounds (ValueError outside them): object thickness in [``MIN_THICKNESS``,
+  ``MAX_THICKNESS``] = [0.3 mm, 5 cm]; object size (:attr:`ObjectShape.size`, the largest
+  distance between two outline points, after scaling) in [``MIN_SIZE``, ``MAX_SIZE``] =
+  [2 cm, 50 cm]; table height in :data:`TABLE_HEIGHT_RANGE`; vertex coordinates within
+  ``MAX_COORDINATE`` metres of the origin.
 """
 
 from __future__ import annotations
 
+import difflib
 import json
 import math
 from dataclasses import dataclass
@@ -39,6 +46,90 @@ from slide_gym.geometry.polygons import (
 DEFAULT_THICKNESS = 0.004  # m
 DEFAULT_DENSITY = 1200.0  # kg/m^3 (plastic)
 DEFAULT_SLAB_THICKNESS = 0.03  # m
+MIN_THICKNESS = 0.0003  # m: a thin card
+MAX_THICKNESS = 0.05  # m: a thick book; thicker is no longer a plate to slide
+MIN_SIZE = 0.02  # m: a coin; the fingertip pad alone is 3.2 cm wide
+MAX_SIZE = 0.5  # m: about the width of the arm's reach band on the tables (0.30-0.85 m)
+MAX_COORDINATE = 1000.0
+"""Largest |x| or |y| (m) accepted in a vertex list: anything beyond is a unit mistake (and
+1e200 would overflow the area computations)."""
+OBJECT_KEYS: tuple[str, ...] = ("name", "vertices", "holes", "thickness", "density")
+"""Keys of an object JSON file ("name" and "vertices" required)."""
+TABLE_KEYS: tuple[str, ...] = ("name", "vertices", "height", "slab_thickness")
+"""Keys of a table JSON file ("name", "vertices" and "height" required)."""
+
+
+def closest(word: str, choices: tuple[str, ...] | list[str]) -> str | None:
+    """The choice most like ``word`` (case-insensitive, difflib; else the one choice that
+    starts with it, like "slab" for "slab_thickness"), or None if none is close."""
+    lowered = {c.lower(): c for c in choices}
+    word = str(word).lower()
+    match = difflib.get_close_matches(word, list(lowered), n=1, cutoff=0.6)
+    if not match and len(word) >= 3:
+        match = [c for c in lowered if c.startswith(word)]
+    return lowered[match[0]] if len(match) == 1 else None
+
+
+def _check_range(value: float, lo: float, hi: float, what: str, span: str) -> float:
+    """``value`` as a float if it is a number within [lo, hi] (metres), else a ValueError
+    that also spots millimetres given for metres."""
+    v = _check_finite(value, what)
+    if not lo <= v <= hi:
+        hint = ""
+        if lo <= v / 1000.0 <= hi:
+            hint = f"; lengths are in metres: {v:g} mm is {v / 1000.0:g} m"
+        raise ValueError(f"{what} must be within [{lo:g}, {hi:g}] m ({span}), got {value!r}{hint}")
+    return v
+
+
+def _check_finite(value: float, what: str) -> float:
+    """``value`` as a float if it is a finite number, else a ValueError naming ``what``."""
+    if isinstance(value, (str, bytes, bool)):
+        raise ValueError(f"{what} must be a number, got {value!r}")
+    try:
+        v = float(value)
+    except (TypeError, ValueError, OverflowError):
+        raise ValueError(f"{what} must be a number, got {value!r}") from None
+    if not math.isfinite(v):
+        raise ValueError(f"{what} must be finite, got {value!r}")
+    return v
+
+
+def _check_coordinates(rings: list[Any], what: str) -> None:
+    """ValueError if any vertex coordinate is beyond ``MAX_COORDINATE`` (unit mistakes, and
+    values near 1e200 that overflow later). Unparsable input is left to ``make_polygon``."""
+    for ring in rings:
+        try:
+            pts = np.asarray(ring, dtype=float)
+        except (TypeError, ValueError, OverflowError):
+            continue
+        finite = pts[np.isfinite(pts)] if pts.size else pts
+        if finite.size and float(np.abs(finite).max()) > MAX_COORDINATE:
+            raise ValueError(
+                f"{what}: vertex coordinates must be metres within +-{MAX_COORDINATE:g} of the "
+                f"origin, got {float(np.abs(finite).max()):g}"
+            )
+
+
+def _make_polygon(vertices: Any, holes: Any, what: str) -> shapely.Polygon:
+    """:func:`make_polygon` after the coordinate check; numeric overflow becomes ValueError."""
+    _check_coordinates([vertices, *holes], what)
+    try:
+        return make_polygon(vertices, holes, what=what)
+    except (OverflowError, FloatingPointError) as exc:
+        raise ValueError(f"{what}: vertex coordinates out of range ({exc})") from None
+
+
+TABLE_HEIGHT_RANGE: tuple[float, float] = (-0.10, 0.05)
+"""World z (m) of a table top that the robot can work on (the base is at z = 0, the shoulder
+axes 0.346 m above it; the catalog tables are at 0). Measured with ``plan_once`` (square plate
+on the square table, 8 seeds per height): every query solves from -0.15 to +0.5 m; at -0.2 m
+most time out and at -0.4 m no start configuration exists. The lower bound keeps 0.1 m
+from that failing edge. The upper bound comes from the environment's start: at
+``READY_ARM_Q`` the open fingers' lowest point is 0.117 m above z = 0, so a table at 0.05 m
+under the thickest allowed plate (5 cm) still leaves about 1.7 cm of clearance. The expert
+(``run_episode``, square plate) lifted the plate at both ends: 2 of 2 episodes at -0.10 m,
+4 of 5 at +0.05 m."""
 
 
 def _check_positive(value: float, what: str) -> float:
@@ -59,6 +150,7 @@ def _check_polygon(polygon: Any, what: str) -> shapely.Polygon:
         raise ValueError(f"{what}: polygon must be a non-empty shapely Polygon")
     if not polygon.is_valid:
         raise ValueError(f"{what}: invalid polygon ({shapely.is_valid_reason(polygon)})")
+    _check_coordinates([shapely.get_coordinates(polygon)], what)
     return shapely.orient_polygons(polygon)
 
 
@@ -79,13 +171,22 @@ class ObjectShape:
     density: float = DEFAULT_DENSITY
 
     def __post_init__(self) -> None:
-        poly = _check_polygon(self.polygon, f"object {self.name!r}")
-        c = poly.centroid
-        poly = shapely.affinity.translate(poly, -c.x, -c.y)
-        object.__setattr__(self, "polygon", poly)
         what = f"object {self.name!r}"
-        object.__setattr__(self, "thickness", _check_positive(self.thickness, f"{what} thickness"))
+        poly = _check_polygon(self.polygon, what)
+        thickness = _check_range(
+            self.thickness, MIN_THICKNESS, MAX_THICKNESS, f"{what} thickness", "0.3 mm to 5 cm"
+        )
+        object.__setattr__(self, "thickness", thickness)
         object.__setattr__(self, "density", _check_positive(self.density, f"{what} density"))
+        size = _outline_size(poly)
+        if not MIN_SIZE * (1 - 1e-9) <= size <= MAX_SIZE * (1 + 1e-9):
+            raise ValueError(
+                f"{what} is {_cm(size)} across (its largest extent), "
+                f"{'smaller' if size < MIN_SIZE else 'larger'} than allowed: objects must be "
+                f"{_cm(MIN_SIZE)} to {_cm(MAX_SIZE)} across (vertices are in metres)"
+            )
+        c = poly.centroid
+        object.__setattr__(self, "polygon", shapely.affinity.translate(poly, -c.x, -c.y))
 
     @classmethod
     def from_vertices(
@@ -97,7 +198,7 @@ class ObjectShape:
         density: float = DEFAULT_DENSITY,
     ) -> ObjectShape:
         """Validate an outline (and holes), recentre it on its centroid."""
-        poly = make_polygon(vertices, holes, what=f"object {name!r}")
+        poly = _make_polygon(vertices, list(holes), what=f"object {name!r}")
         return cls(name, poly, thickness, density)
 
     @property
@@ -117,16 +218,33 @@ class ObjectShape:
         return float(np.linalg.norm(ext, axis=1).max())
 
     @property
+    def size(self) -> float:
+        """Largest distance between two points of the outline (m): the plate's largest
+        extent, whatever its orientation. Bounded by ``MIN_SIZE`` and ``MAX_SIZE``."""
+        return _outline_size(self.polygon)
+
+    @property
     def max_extent(self) -> float:
         """Largest side of the axis-aligned bounding box (m)."""
         minx, miny, maxx, maxy = self.polygon.bounds
         return float(max(maxx - minx, maxy - miny))
 
     def scaled(self, s: float) -> ObjectShape:
-        """Same plate with its outline scaled by ``s`` about the centroid (thickness kept)."""
+        """Same plate with its outline scaled by ``s`` about the centroid (thickness kept).
+
+        The scaled size must stay within [``MIN_SIZE``, ``MAX_SIZE``]; the ValueError says
+        which scales this object allows."""
         s = _check_positive(s, "scale")
         if s == 1.0:
             return self
+        size = self.size
+        lo, hi = MIN_SIZE / size, MAX_SIZE / size
+        if not lo * (1 - 1e-9) <= s <= hi * (1 + 1e-9):
+            raise ValueError(
+                f"scale {s:g} makes object {self.name!r} {_cm(s * size)} across, "
+                f"{'smaller' if s < lo else 'larger'} than allowed ({_cm(MIN_SIZE)} to "
+                f"{_cm(MAX_SIZE)}): scale must be within [{lo:.3g}, {hi:.3g}] for this object"
+            )
         poly = shapely.affinity.scale(self.polygon, s, s, origin=(0.0, 0.0))
         return ObjectShape(self.name, poly, self.thickness, self.density)
 
@@ -175,6 +293,13 @@ class TableShape:
             raise ValueError(f"{what} height must be a number, got {self.height!r}") from None
         if not math.isfinite(height):
             raise ValueError(f"{what} height must be finite, got {self.height!r}")
+        lo, hi = TABLE_HEIGHT_RANGE
+        if not lo <= height <= hi:
+            raise ValueError(
+                f"{what} height {height:g} m is out of the arm's reach: a table top must be at "
+                f"world z {lo:g} to {hi:g} m (the robot base is at z = 0, its shoulder 0.346 m "
+                f"above it)"
+            )
         object.__setattr__(self, "height", height)
         slab = _check_positive(self.slab_thickness, f"{what} slab_thickness")
         object.__setattr__(self, "slab_thickness", slab)
@@ -188,7 +313,8 @@ class TableShape:
         slab_thickness: float = DEFAULT_SLAB_THICKNESS,
     ) -> TableShape:
         """Validate a world-xy outline."""
-        return cls(name, make_polygon(vertices, what=f"table {name!r}"), height, slab_thickness)
+        poly = _make_polygon(vertices, [], what=f"table {name!r}")
+        return cls(name, poly, height, slab_thickness)
 
     @property
     def area(self) -> float:
@@ -214,8 +340,11 @@ class TableShape:
         }
 
 
-def _read_json(path: str | Path, required: tuple[str, ...]) -> tuple[Path, dict[str, Any]]:
-    """Read a JSON object with the required keys; ValueError naming the file otherwise."""
+def _read_json(
+    path: str | Path, required: tuple[str, ...], kind: str
+) -> tuple[Path, dict[str, Any]]:
+    """Read a JSON object with the required keys and no unknown ones; ValueError naming the
+    file (and the closest valid key) otherwise."""
     path = Path(path)
     try:
         data = json.loads(path.read_text())
@@ -227,6 +356,20 @@ def _read_json(path: str | Path, required: tuple[str, ...]) -> tuple[Path, dict[
         raise ValueError(f"{path}: not valid JSON ({exc})") from None
     if not isinstance(data, dict):
         raise ValueError(f"{path}: expected a JSON object {{...}}, got {type(data).__name__}")
+    allowed, other = (OBJECT_KEYS, TABLE_KEYS) if kind == "object" else (TABLE_KEYS, OBJECT_KEYS)
+    for key in data:
+        if key in allowed:
+            continue
+        near = closest(key, allowed)
+        if near is not None:
+            hint = f"did you mean {near!r}? "
+        elif key in other:
+            hint = f"{key!r} belongs in {'a table' if kind == 'object' else 'an object'} file; "
+        else:
+            hint = ""
+        raise ValueError(
+            f"{path}: unknown key {key!r} in {kind} file; {hint}valid keys: {', '.join(allowed)}"
+        )
     missing = [k for k in required if k not in data]
     if missing:
         raise ValueError(f"{path}: missing key(s) {missing}; required keys are {list(required)}")
@@ -247,7 +390,7 @@ def _wrap(path: Path, build: Any) -> Any:
 
 def load_object_json(path: str | Path) -> ObjectShape:
     """Load an object from JSON (see module docstring); vertices are recentred."""
-    path, data = _read_json(path, ("name", "vertices"))
+    path, data = _read_json(path, ("name", "vertices"), "object")
     holes = data.get("holes", [])
     if not isinstance(holes, list):
         raise ValueError(f"{path}: 'holes' must be a list of vertex lists")
@@ -265,7 +408,7 @@ def load_object_json(path: str | Path) -> ObjectShape:
 
 def load_table_json(path: str | Path) -> TableShape:
     """Load a table from JSON (see module docstring)."""
-    path, data = _read_json(path, ("name", "vertices", "height"))
+    path, data = _read_json(path, ("name", "vertices", "height"), "table")
     return _wrap(
         path,
         lambda: TableShape.from_vertices(
@@ -275,3 +418,22 @@ def load_table_json(path: str | Path) -> TableShape:
             data.get("slab_thickness", DEFAULT_SLAB_THICKNESS),
         ),
     )
+
+
+def _cm(metres: float) -> str:
+    """A length for messages: centimetres with 3 significant digits."""
+    return f"{metres * 100:.3g} cm"
+
+
+def _outline_size(poly: shapely.Polygon) -> float:
+    """Largest distance between two points of a polygon (its convex hull's diameter, m)."""
+    minx, miny, maxx, maxy = poly.bounds
+    box = max(maxx - minx, maxy - miny)
+    if not math.isfinite(box) or box > 10 * MAX_SIZE:
+        return box  # far too large anyway; avoid squaring huge numbers
+    hull = np.asarray(poly.convex_hull.exterior.coords)[:-1]
+    best = 0.0
+    for start in range(0, len(hull), 256):
+        d = hull[start : start + 256, None, :] - hull[None, :, :]
+        best = max(best, float(np.sqrt((d**2).sum(axis=2)).max()))
+    return best

@@ -22,15 +22,19 @@ MATCH_TOLERANCE = 1e-4
 
 
 class SceneLibrary:
-    """Known objects and tables (the catalog plus any given), recognised from observations."""
+    """Known objects and tables (any given, then the catalog), recognised from observations.
+
+    Given shapes come first, so one that shares a catalog outline (a catalog letter with
+    another thickness, say) wins over it; tables must also match the observed height.
+    """
 
     def __init__(
         self,
         objects: Iterable[ObjectShape] = (),
         tables: Iterable[TableShape] = (),
     ):
-        self.objects = [*OBJECTS.values(), *objects]
-        self.tables = [*TABLES.values(), *tables]
+        self.objects = [*objects, *OBJECTS.values()]
+        self.tables = [*tables, *TABLES.values()]
         self._object_outlines = np.stack(
             [o.descriptor(OBJECT_OUTLINE_POINTS) for o in self.objects]
         )
@@ -57,6 +61,7 @@ class SceneLibrary:
         """The known table whose outline samples match, else the sampled polygon."""
         obs = np.asarray(outline, dtype=float)
         residual = np.abs(self._table_outlines - obs).max(axis=(1, 2))
+        residual[[abs(t.height - float(height)) > 1e-6 for t in self.tables]] = np.inf
         k = int(np.argmin(residual))
         if residual[k] <= MATCH_TOLERANCE:
             return self.tables[k]

@@ -294,7 +294,7 @@ class TableShape:
         if not math.isfinite(height):
             raise ValueError(f"{what} height must be finite, got {self.height!r}")
         lo, hi = TABLE_HEIGHT_RANGE
-        if not lo <= height <= hi:
+        if not lo - 1e-6 <= height <= hi + 1e-6:  # a float32 observation of a bound passes
             raise ValueError(
                 f"{what} height {height:g} m is out of the arm's reach: a table top must be at "
                 f"world z {lo:g} to {hi:g} m (the robot base is at z = 0, its shoulder 0.346 m "

@@ -52,6 +52,8 @@ def _cmd_bench_execute(args: argparse.Namespace) -> int:
         time_budget=args.time_budget,
         workers=args.workers,
         seed=args.seed,
+        scale=args.scale,
+        thickness=args.thickness,
     )
     print(execute_markdown_table(summary) if args.markdown else json.dumps(summary, indent=2))
     return 0
@@ -170,7 +172,13 @@ def _add_execute(what: Any) -> None:
         "and table; print lift rates, slide errors and times (resumable, runs in parallel).",
     )
     objects, tables = ",".join(OBJECT_NAMES), ",".join(TABLE_NAMES)
-    p.add_argument("--objects", default=objects, metavar="NAMES", help="comma-separated objects")
+    p.add_argument(
+        "--objects",
+        default=objects,
+        metavar="NAMES",
+        help="comma-separated objects; procedural: a generated plate per episode, never the "
+        "same one on two tables",
+    )
     p.add_argument("--tables", default=tables, metavar="NAMES", help="comma-separated tables")
     p.add_argument("--planner", choices=PLANNERS, default=execute.PLANNER, help="the planner")
     p.add_argument(
@@ -183,6 +191,8 @@ def _add_execute(what: Any) -> None:
         metavar="S",
         help="planning seconds per episode, first plan and replans together",
     )
+    p.add_argument("--scale", type=float, default=1.0, help="object scale")
+    p.add_argument("--thickness", type=float, metavar="M", help="override every plate's (m)")
     _add_jobs(p, execute.OUT, "first episode seed (trial k uses SEED + k)")
     p.add_argument("--markdown", action="store_true", help="print markdown tables, not JSON")
     p.set_defaults(func=_cmd_bench_execute)

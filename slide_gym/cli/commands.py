@@ -89,6 +89,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
         args.object,
         args.table,
         scale=args.scale,
+        thickness=args.thickness,
         object_pose=pose,
         seed=args.seed,
         planner=args.planner,
@@ -130,6 +131,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         planner=args.planner,
         time_budget=args.time_budget,
         video=args.video,
+        thickness=args.thickness,
     )
     if args.json:
         print(json.dumps(r.to_json_dict()))
@@ -165,8 +167,8 @@ def add_parsers(sub: Any) -> None:
     p.add_argument("--json", action="store_true", help="print polygons and sizes as JSON")
     p.set_defaults(func=_cmd_shapes)
 
-    def scene_args(p: argparse.ArgumentParser) -> None:
-        p.add_argument("--object", default="L", help="catalog name or JSON file")
+    def scene_args(p: argparse.ArgumentParser, objects: str = "catalog name or JSON file") -> None:
+        p.add_argument("--object", default="L", help=objects)
         p.add_argument("--table", default="square", help="catalog name or JSON file")
         p.add_argument("--seed", type=int, default=0)
 
@@ -184,9 +186,14 @@ def add_parsers(sub: Any) -> None:
     p.set_defaults(func=_cmd_demo)
 
     p = sub.add_parser("plan", help="plan one top-slide (and grasp) for an object on a table")
-    p.add_argument("--object", required=True, help="catalog name or JSON file")
+    p.add_argument(
+        "--object",
+        required=True,
+        help="catalog name, JSON file, or procedural (the plate of --seed)",
+    )
     p.add_argument("--table", required=True, help="catalog name or JSON file")
     p.add_argument("--scale", type=float, default=1.0)
+    p.add_argument("--thickness", type=float, default=None, help="override the plate's (m)")
     p.add_argument("--object-pose", default=None, help="X,Y,YAW; default: random from --seed")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--planner", choices=PLANNERS, default="regions")
@@ -200,8 +207,9 @@ def add_parsers(sub: Any) -> None:
     p = sub.add_parser(
         "run", help="run the planner expert for one episode (slide, grasp, lift), print a summary"
     )
-    scene_args(p)
+    scene_args(p, "catalog name, JSON file, or procedural (the plate of --seed)")
     p.add_argument("--scale", type=float, default=1.0)
+    p.add_argument("--thickness", type=float, default=None, help="override the plate's (m)")
     p.add_argument("--planner", choices=PLANNERS, default="regions")
     p.add_argument("--time-budget", type=float, default=10.0, help="planning seconds per query")
     p.add_argument("--video", type=Path, default=None, help="write an MP4 or GIF here")

@@ -7,10 +7,10 @@ from typing import Any
 
 import numpy as np
 
-from slide_gym.geometry import ObjectShape, TableShape, get_object, get_table
+from slide_gym.geometry import ObjectShape, TableShape, get_table
 from slide_gym.planning.api import SlideParams, TopSlidePlanner, TopSlideProblem
 from slide_gym.planning.result import PlanResult, check_time_budget
-from slide_gym.task import TaskParams, check_scene, sample_start_pose
+from slide_gym.task import TaskParams, check_scene, sample_start_pose, scene_object
 
 
 def seeded_generators(seed: int) -> tuple[np.random.Generator, np.random.Generator]:
@@ -37,16 +37,20 @@ def plan_once(
     table: str | TableShape,
     *,
     scale: float = 1.0,
+    thickness: float | None = None,
     object_pose: Any = None,
     seed: int = 0,
     planner: str = "regions",
     time_budget: float = 10.0,
     params: SlideParams | None = None,
 ) -> dict[str, Any]:
-    """Solve one problem; without ``object_pose`` a valid random start pose comes from ``seed``."""
+    """Solve one problem; without ``object_pose`` a valid random start pose comes from ``seed``.
+
+    ``obj`` may be ``"procedural"`` (the plate of ``seed``); ``thickness`` (m) overrides it.
+    """
     check_time_budget(time_budget)
-    shape = get_object(obj, scale)
     table_shape = get_table(table)
+    shape = scene_object(obj, table_shape, seed=seed, scale=scale, thickness=thickness)
     check_scene(shape, table_shape)
     pose_rng, plan_rng = seeded_generators(seed)
     if object_pose is None:

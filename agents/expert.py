@@ -5,13 +5,18 @@ environment's joint-increment actions. It reads everything from observations (sc
 object pose, fingertip pose) and keeps its own copy of the environment's arm targets.
 
 Phases: ``approach`` (joint-space move to a pose above the press point, via a raised pose if
-the direct move would hit something), ``press`` (straight down to the planned contact depth),
+the direct move would hit something, else along a planned joint route; never a route the
+collision checker rejected), ``press`` (straight down to the planned contact depth),
 ``slide`` (the planned path), ``pull_back`` (only if the plate's centroid ended up near or past
 the edge), ``lift_off``, then a check of the real plate pose against Eq. 2's prediction. A
 graspable plate gets a grasp re-aimed at its measured pose: ``transfer`` (up and around to a
 stand-off outside the table edge), ``approach_grasp``, ``close``, ``lift``. A plate left
 ungraspable is re-planned from where it lies, within the total planning budget. While the
 fingertip is pressed, :class:`~agents.tracking.ContactTracker` corrects the planned targets.
+
+Same seed, same episode, on any machine: every planning step is capped by a count
+(``ExpertParams.strict_plan_iterations``, ``grasp_iterations``, ``route_iterations``); the
+planning budget only decides when the expert gives up (``failure`` says so).
 """
 
 from __future__ import annotations
@@ -46,8 +51,13 @@ from slide_gym.planning.api import (
     slid_object_pose,
     solve_ik,
 )
+from slide_gym.planning.result import PlanStatus
 from slide_gym.robot.kinematics import FastChain, fingertip_chain, grasp_chain
 from slide_gym.robot.model import ARM_LOWER, ARM_UPPER
+
+APPROACH_RAISES = (0.15, 0.25, 0.35)
+"""m above the pre-press pose: the approach goes via a pose raised by the first of these whose
+route is free (when the direct move is not), before a planned route is tried."""
 
 
 @dataclass
@@ -166,17 +176,23 @@ class SlideGraspExpert:
         strict = dataclasses.replace(sp, centroid_margin=margin)
         return [("strict", strict), ("relaxed", relaxed_slide_params(strict))]
 
+    def _budget_left(self) -> float:
+        """Planning seconds left in the episode's budget (a give-up deadline, nothing more)."""
+        return self.time_budget - (self.report.planning_time_s or 0.0)
+
     def _plan(self, obs: dict[str, np.ndarray]) -> None:
         assert self.obj is not None and self.table is not None and self.q_cmd is not None
         pose = self._object_pose(obs)
         replan = self.report.replans > 0
         attempts = self._slide_params()
         for k, (name, params) in enumerate(attempts):
-            budget = self.time_budget - self.report.planning_time_s
+            budget = self._budget_left()
             if budget <= 0.05:
                 return self._fail("planning budget used up")
-            if k < len(attempts) - 1:
-                budget *= self.params.strict_plan_share
+            if k < len(attempts) - 1:  # capped by iterations, not by a share of the time
+                params = dataclasses.replace(
+                    params, max_iterations=self.params.strict_plan_iterations
+                )
             try:
                 problem = TopSlideProblem(self.obj, self.table, pose, params, allow_overhang=replan)
             except ValueError as exc:
@@ -194,6 +210,8 @@ class SlideGraspExpert:
             if result.solved:
                 break
             self.report.events.append(f"{name} plan: {result.status.value}: {result.reason}")
+            if result.status is PlanStatus.TIMEOUT:
+                return self._fail(f"planning budget used up ({name} plan: {result.reason})")
         else:
             return self._fail(f"planner: {result.reason}")
         self.report.planned = True
@@ -238,12 +256,18 @@ class SlideGraspExpert:
         down = down[::-1]  # from above the press point straight down to it
         q_pre = down[0]
         high = self.tip.forward(q_pre)
-        high[2, 3] += 0.15
+        high[2, 3] += APPROACH_RAISES[0]
         q_high = self._ik(self.tip, high, q_pre)
         routes = [[self.q_cmd, q_pre]] + (
             [[self.q_cmd, q_high, q_pre]] if q_high is not None else []
         )
-        route = next((r for r in routes if planner.route_free(r, pose)), routes[-1])
+        route = next((r for r in routes if planner.route_free(r, pose)), None)
+        if route is None:
+            route, why = self._other_approach(q_pre, pose)
+            if route is None:
+                return self._fail(f"no collision-free approach to the press point: {why}")
+        if not planner.route_free(down, None, mode="sliding"):
+            return self._fail("the press move down to the plate would collide")
         self._push(Segment("approach", np.array(route), p.approach_speed), self.tip)
         press = Segment("press", down, 1.0, p.press_speed, hold_s=p.press_hold_s)
         self._push(press, self.tip, track=True)
@@ -255,6 +279,34 @@ class SlideGraspExpert:
         for step, gamma in zip(list(self.queue)[first:], gammas[1:], strict=True):
             step.object_xy = slid_object_pose(gammas[0], gamma, pose)[:2]
         self.q_slide_end = np.asarray(path[-1], dtype=float)
+
+    def _other_approach(
+        self, q_pre: np.ndarray, pose: np.ndarray
+    ) -> tuple[list[np.ndarray] | np.ndarray | None, str]:
+        """An approach to ``q_pre`` when neither the direct move nor the one via the pose
+        15 cm above it is free: via poses raised higher, else a joint route planned with at
+        most ``route_iterations`` search iterations. ``(route, "")`` or ``(None, why)``."""
+        planner = self.planner
+        assert planner is not None and self.q_cmd is not None
+        for lift in APPROACH_RAISES[1:]:
+            high = self.tip.forward(q_pre)
+            high[2, 3] += lift
+            q_high = self._ik(self.tip, high, q_pre)
+            if q_high is not None and planner.route_free([self.q_cmd, q_high, q_pre], pose):
+                self.report.events.append(f"approach via a pose raised {lift:.2f} m")
+                return [self.q_cmd, q_high, q_pre], ""
+        budget = self._budget_left()
+        if budget <= 0.0:
+            return None, "direct and raised moves collide and the planning budget is used up"
+        t0 = time.perf_counter()
+        route, why = planner.plan_route(
+            self.q_cmd, q_pre, pose, self.params.route_iterations, budget
+        )
+        self.report.planning_time_s += time.perf_counter() - t0
+        if route is None:
+            return None, f"direct and raised moves collide; route planner: {why}"
+        self.report.events.append(f"approach along a planned route ({len(route)} waypoints)")
+        return route, ""
 
     def _push(self, segment: Segment, chain: FastChain | None, track: bool = False) -> None:
         for q in time_segment(segment, self.dt, chain):
@@ -276,7 +328,8 @@ class SlideGraspExpert:
         inward /= max(float(np.linalg.norm(inward)), 1e-9)
         shift = np.r_[inward * (self.params.pull_back_margin - depth + 0.005), 0.0]
         line = self._cartesian(self.tip, self.q_slide_end, shift)
-        if line is None:
+        assert self.planner is not None
+        if line is None or not self.planner.route_free(line, None, mode="sliding"):
             return self._lift_off()
         self.report.events.append(f"centroid {depth:.3f} m inside the edge: pulled back")
         self._push(Segment("pull_back", line, 1.0, self.params.press_speed), self.tip, track=True)
@@ -290,6 +343,9 @@ class SlideGraspExpert:
         line = self._rise(self.tip, q_end, (h, h / 2), any_branch=False)
         if line is None:
             return self._fail("no IK solution to lift the fingertip off the plate")
+        assert self.planner is not None
+        if not self.planner.route_free(line, None, mode="sliding"):
+            return self._fail("the lift-off move would collide")
         self._push(Segment("lift_off", line, 1.0, self.params.press_speed), self.tip, track=True)
 
     def _after_lift_off(self, obs: dict[str, np.ndarray]) -> None:
@@ -304,11 +360,20 @@ class SlideGraspExpert:
         ov = overhang(placed, self.table.polygon)
         ok, info = False, {"reason": "overhang below u_star or centroid off the table"}
         if ov.graspable(self.params.grasp_u_star):
+            budget = self._budget_left()
+            if budget <= 0.0:
+                return self._fail("planning budget used up before re-aiming the grasp")
             t0 = time.perf_counter()
             ok, info = self.planner.reaim_grasp(
-                actual, self.q_cmd, self.params.grasp_budget, self.params.grasp_u_star
+                actual,
+                self.q_cmd,
+                self.params.grasp_u_star,
+                max_iterations=self.params.grasp_iterations,
+                time_budget=budget,
             )
             self.report.planning_time_s += time.perf_counter() - t0
+            if info.get("timeout"):
+                return self._fail("planning budget used up while re-aiming the grasp")
         self.report.events.append(
             f"slid: overhang {ov.u:.3f} m, error {self.report.slide_error_m:.3f} m "
             f"{self.report.slide_error_rad:.3f} rad, grasp {'ok' if ok else info.get('reason')}"
@@ -328,6 +393,9 @@ class SlideGraspExpert:
         lift_path = self._rise(self.hand, q_grasp, heights, any_branch=True)
         if lift_path is None:
             return self._fail("no IK solution for lifting the grasped object")
+        assert self.planner is not None
+        if not self.planner.route_free(lift_path, None):
+            return self._fail("lifting the grasped object would collide")
         route = np.vstack([self.q_cmd, transfer[1:-1]])
         transfer_leg = Segment(
             "transfer", route, p.transfer_speed, p.transfer_tip_speed, hold_s=p.settle_s

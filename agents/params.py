@@ -31,9 +31,37 @@ EXPERT_SLIDE_PARAMS = SlideParams(
 - the grasp approached from a stand-off 6 cm out, clear of the plate's corners."""
 
 
+_COUNTS = ("max_replans", "strict_plan_iterations", "grasp_iterations", "route_iterations")
+"""The integer fields of :class:`ExpertParams`: caps that count work, never time."""
+
+
 @dataclass(frozen=True)
 class ExpertParams:
-    """Execution speeds, heights and gains (SI units)."""
+    """Execution speeds, heights and gains (SI units), and the expert's planning caps.
+
+    The caps count work, so the same seed gives the same episode on any machine; the
+    episode's ``time_budget`` only decides when the expert gives up. Their values follow the
+    clock-based caps they replaced, measured on the 2-core development machine (all objects
+    and tables, seeds 0-2, 10 s budget):
+
+    - ``strict_plan_iterations``: search iterations of the plan with the full margins before
+      the expert plans with relaxed ones (it replaced "half the time budget"). Of 180 strict
+      plans given 5 s, the 142 solved ones took a median of 85 iterations (90th percentile
+      307, largest 607); the 38 that ran out of time had reached 141-1155 iterations (median
+      611: the rate varies from 30 to 240 iterations/s with the plate and table). 300 makes
+      22 of the 180 decide differently (17 solved ones go relaxed, 5 timed-out ones get more
+      iterations; 400 would make 17, but at slow rates it leaves too little of a 10 s budget
+      for the relaxed plan: 14 of 72 episodes gave up on a loaded machine, against 8 that ran
+      out of time with the old split).
+    - ``grasp_iterations``: iterations of the fallback transfer planner per grasp candidate
+      when the grasp is re-aimed at the measured plate pose (it replaced a 1 s cap on the
+      whole re-aim, within which each fallback also had at most 0.25 s). The 28 re-aims of 72
+      episodes that needed the fallback took 1-49 iterations (median 5); 0.25 s held about
+      50-80. Same value as ``GraspParams.transfer_iterations``.
+    - ``route_iterations``: iterations of the joint-space route planner for the approach to
+      the press point when neither the direct move nor a move via a raised pose is free (2 of
+      72 episodes, both replans; before, the expert took the colliding route anyway).
+    """
 
     approach_speed: float = 1.0  # rad/s, free-space joint speed
     pre_contact_height: float = 0.03  # m above the press point before pressing
@@ -43,7 +71,7 @@ class ExpertParams:
     transfer_speed: float = 0.6  # rad/s
     transfer_tip_speed: float = 0.25  # m/s of the grasp frame during the transfer
     lift_off_height: float = 0.06  # m the fingertip rises off the plate after the slide
-    grasp_budget: float = 1.0  # s to re-aim the grasp at the measured pose
+    grasp_iterations: int = 100  # fallback transfer iterations when re-aiming the grasp
     settle_s: float = 0.5  # s at the stand-off pose: the arm settles before the approach
     grasp_speed: float = 0.04  # m/s on the final approach to the grasp
     close_s: float = 0.8  # hand closing time before lifting
@@ -57,25 +85,28 @@ class ExpertParams:
     max_correction: float = 0.04  # m, largest Cartesian correction of the fingertip
     max_replans: int = 2
     pull_back_margin: float = 0.012  # m: a slid plate's centroid closer to the edge is pulled back
-    strict_plan_share: float = 0.5  # of the remaining budget, for the plan with full margins
+    strict_plan_iterations: int = 300  # search iterations of the plan with full margins
+    route_iterations: int = 200  # route planner iterations for the approach, if needed
     min_centroid_margin: float = 0.005  # m, for plates too small for the full margin
     grasp_u_star: float = 0.032  # m, least real overhang to go for the grasp (task: 0.03)
 
     def __post_init__(self) -> None:
         for name, value in dataclasses.asdict(self).items():
-            if name == "max_replans":
-                if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-                    raise ValueError(f"max_replans must be an integer >= 0, got {value!r}")
+            if name in _COUNTS:
+                least = 0 if name == "max_replans" else 1
+                if isinstance(value, bool) or not isinstance(value, int) or value < least:
+                    raise ValueError(f"{name} must be an integer >= {least}, got {value!r}")
             elif not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ValueError(f"ExpertParams.{name} must be a finite positive number: {value}")
 
 
 def relaxed_slide_params(params: SlideParams) -> SlideParams:
-    """Settings for when no plan with the full margins comes in time: any plate turn up to
-    1.6 rad, press points up to 3 cm from the centroid, a planned overhang of 3.5 cm with
-    the centroid 0.5 cm inside the edge."""
+    """Settings for when no plan with the full margins comes within its iteration cap: any
+    plate turn up to 1.6 rad, press points up to 3 cm from the centroid, a planned overhang
+    of 3.5 cm with the centroid 0.5 cm inside the edge, and no iteration cap."""
     return dataclasses.replace(
         params,
+        max_iterations=None,
         max_rotation=max(params.max_rotation, 1.6),
         press_radius=None if params.press_radius is None else max(params.press_radius, 0.03),
         u_star=min(params.u_star, 0.035),

@@ -24,7 +24,7 @@ class ExpertReport:
         planning_time_s: seconds spent planning and re-checking grasps (``None``: no episode
             ran, the scene was rejected).
         plan_status: status of the last planner query (``"solved"``, ``"timeout"``,
-            ``"infeasible"``), ``None`` before any.
+            ``"iteration_limit"``, ``"infeasible"``), ``None`` before any.
         failure: why the expert gave up (or why the scene was rejected), ``None`` otherwise.
         events: notable moments, in order (failed plan attempts, pull-backs, slide checks).
         object_predicted_pose: ``[x, y, yaw]`` Eq. 2 predicts after the (last) slide.

@@ -8,28 +8,23 @@ import pytest
 
 import slide_gym  # noqa: F401 - registers the environments
 from agents.episode import run_episode
-from agents.params import EXPERT_SLIDE_PARAMS, ExpertParams
+from agents.params import ExpertParams
 from agents.planner_agent import PlannerAgent
 from agents.scene import SceneLibrary
 from agents.trajectory import Segment, time_segment
 from slide_gym.geometry import get_object, get_table
+from slide_gym.planning.api import GraspParams
 from slide_gym.robot.kinematics import fingertip_chain
 
 GRASP_ENV = "SlideGym/TopSlideGrasp-v0"
 
 
 @pytest.fixture(scope="module")
-def agent_kwargs(plan_budget, unhurried_params) -> dict:
-    """PlannerAgent settings under which no time cap decides an episode: the first (strict)
-    plan gets ``strict_plan_share`` (half) of the total, i.e. ``plan_budget``; re-aiming the
-    grasp (``ExpertParams.grasp_budget``, 1 s by default) and the fallback transfer planner
-    (``GraspParams.transfer_budget``, 0.25 s) get ``plan_budget`` too. These episodes plan in
-    under 2 s on an idle machine."""
-    return {
-        "time_budget": 2 * plan_budget,
-        "params": ExpertParams(grasp_budget=plan_budget),
-        "grasp": unhurried_params(EXPERT_SLIDE_PARAMS).grasp,
-    }
+def agent_kwargs(plan_budget) -> dict:
+    """PlannerAgent settings under which the clock decides nothing: the expert's inner caps
+    count iterations, and these episodes plan in under 2 s on an idle machine, far inside
+    ``plan_budget`` (the only clock limit, a give-up)."""
+    return {"time_budget": plan_budget}
 
 
 @pytest.fixture(scope="module")
@@ -68,6 +63,15 @@ def test_scene_library_recognises_scaled_catalog_shapes_from_outlines():
         t = 2 * np.pi * np.arange(32) / 32
         odd = lib.object_from(np.c_[0.04 * np.cos(t), 0.02 * np.sin(t)])
     assert odd.name == "observed"
+
+
+def test_expert_caps_are_counts():
+    for name in ("strict_plan_iterations", "grasp_iterations", "route_iterations"):
+        for bad in (0, 1.5, True):
+            with pytest.raises(ValueError, match=name):
+                ExpertParams(**{name: bad})
+    with pytest.raises(ValueError, match="transfer_iterations"):
+        GraspParams(transfer_iterations=2.0)
 
 
 def test_agent_rejects_bad_arguments():

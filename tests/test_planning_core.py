@@ -146,6 +146,23 @@ def test_walled_off_goal_times_out_at_its_budget(monkeypatch):
     assert res.stats.iterations > 10 and res.stats.pairs_validated == 0
 
 
+def test_walled_off_goal_stops_at_its_iteration_cap_with_no_deadline():
+    params = SearchParams(step_size=STEP, n_star=20, max_iterations=60)
+    planner = ForestConnectPlanner(
+        "regions", toy_fns(collides_closed), params, np.random.default_rng(1)
+    )
+    res = planner.solve_until(math.inf)  # only the count can stop it
+    assert res.status is PlanStatus.ITERATION_LIMIT and res.path is None
+    assert res.stats.iterations == 60 and "iteration limit" in res.reason
+    assert res.to_json_dict()["status"] == "iteration_limit"
+    again = ForestConnectPlanner(
+        "regions", toy_fns(collides_closed), params, np.random.default_rng(1)
+    ).solve(BUDGET)
+    assert again.stats.counts() == res.stats.counts()
+    with pytest.raises(ValueError, match="max_iterations"):
+        SearchParams(step_size=STEP, max_iterations=0)
+
+
 @pytest.mark.parametrize("budget", [0.0, -1.0, math.nan, math.inf, "1", True, None])
 def test_bad_budget_raises(budget):
     planner = ForestConnectPlanner("regions", toy_fns(), PARAMS, np.random.default_rng(0))

@@ -194,3 +194,43 @@ def test_hand_params_validation() -> None:
         HandParams(k_proximal=0.0)
     with pytest.raises(ValueError):
         HandParams(d_distal=-1.0)
+
+
+def test_motor_plus_feedforward_stays_within_the_joint_limits_when_pressing_the_table(
+    robot: WamT42,
+) -> None:
+    """Hand driven into a table top (arm targets 10 cm below it): every physics step each
+    joint's motor torque (PyBullet's applied torque) stays within the controller limit
+    ARM_TORQUE_LIMITS and motor plus gravity feedforward within ARM_PEAK_TORQUES."""
+    c = robot.sim.client
+    shape = c.createCollisionShape(pb.GEOM_BOX, halfExtents=[0.25, 0.45, 0.02])
+    table = c.createMultiBody(0, shape, basePosition=[0.6, 0.0, -0.02])
+    robot.reset(READY_ARM_Q)
+    tip, quat = robot.fingertip_pose()
+    below = robot.sim.client.calculateInverseKinematics(
+        robot.body,
+        robot.link_index("fingertip_contact"),
+        (tip - [0.0, 0.0, 0.22]).tolist(),  # 10 cm below the table top
+        quat.tolist(),
+        maxNumIterations=200,
+    )
+    target = np.array(below[:7])
+    arm = [robot.joint_index(n) for n in m.ARM_JOINTS]
+    saturated = np.zeros(7, bool)
+    for k in range(480):
+        if k % 12 == 0:  # new targets at the control rate, 0.05 rad per step toward `target`
+            q = robot.arm_joint_state()[0]
+            robot.set_arm_targets(q + np.clip(target - q, -0.05, 0.05))
+        feedforward = robot.arm_feedforward()
+        robot.step_physics()
+        motor = np.array([s[3] for s in c.getJointStates(robot.body, arm)])
+        assert np.all(np.abs(motor) <= m.ARM_TORQUE_LIMITS + 1e-6), (k, motor)
+        assert np.all(np.abs(motor + feedforward) <= m.ARM_PEAK_TORQUES + 1e-6), (k, motor)
+        saturated |= np.abs(motor) >= robot.motor_caps() - 1e-6
+    assert c.getContactPoints(robot.body, table)  # it really pushes on the table
+    assert saturated[1]  # and joint 2's motor runs into its cap doing so
+    # The feedforward (gravity, up to the controller limit) and the motor never sum past a
+    # joint's peak torque: at READY_ARM_Q joint 2 needs 21.7 N m, above its 20 N m limit.
+    robot.reset(READY_ARM_Q)
+    assert abs(robot.arm_feedforward()[1]) == pytest.approx(m.ARM_TORQUE_LIMITS[1])
+    assert np.all(robot.motor_caps() + np.abs(robot.arm_feedforward()) <= m.ARM_PEAK_TORQUES)

@@ -23,6 +23,11 @@ class SlideParams:
     contact up to dz_hi = 25 mm below the plate top, finger B's rounded tip still clears the
     plate top (52 mm * cos(1.0) - 10.5 mm * (1 - sin(1.0)) = 26.4 mm > 25 mm). Steeper pitches
     press harder but make the idle finger hit the plate.
+
+    ``max_iterations`` (None: no cap, the paper's setting) caps the tree search's iterations
+    (:attr:`~slide_gym.planning.result.SearchParams.max_iterations`; for ``cbirrt`` also the
+    start/goal pairs it draws before the search): the query then ends with status
+    ``iteration_limit``, on any machine at the same point, while the time budget only gives up.
     """
 
     beta0: float = 0.9
@@ -41,6 +46,7 @@ class SlideParams:
     press_edge_margin: float = 0.0  # m, least distance of a press point from the plate's edge
     press_radius: float | None = None  # m: press only near the centroid (None: anywhere, paper)
     shortcut_attempts: int = 40  # constrained shortcuts tried on the found slide (0: none)
+    max_iterations: int | None = None  # search iterations before giving up (None: no cap)
     distance_weights: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0, 0.6, 0.6, 0.3)
     ik: IKParams = field(default_factory=IKParams)
     grasp: GraspParams = field(default_factory=GraspParams)
@@ -73,6 +79,9 @@ class SlideParams:
             raise ValueError(f"n_star must be an integer >= 1, got {self.n_star!r}")
         if self.press_radius is not None:
             _finite(self.press_radius, "press_radius", positive=True)
+        cap = self.max_iterations
+        if cap is not None and (isinstance(cap, bool) or not isinstance(cap, int) or cap < 1):
+            raise ValueError(f"max_iterations must be None or an integer >= 1, got {cap!r}")
         attempts = self.shortcut_attempts
         if isinstance(attempts, bool) or not isinstance(attempts, int) or attempts < 0:
             raise ValueError(f"shortcut_attempts must be an integer >= 0, got {attempts!r}")

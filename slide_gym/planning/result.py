@@ -20,6 +20,13 @@ class PlanStatus(str, Enum):
     SOLVED = "solved"
     TIMEOUT = "timeout"
     INFEASIBLE = "infeasible"
+    ITERATION_LIMIT = "iteration_limit"
+    """The search stopped at :attr:`SearchParams.max_iterations` (a count, not a clock)."""
+
+
+class OutOfTime(RuntimeError):
+    """A give-up deadline passed in the middle of a step whose outcome would otherwise depend
+    on how far it got (a shortcut loop, a densification): the caller gives up instead."""
 
 
 @dataclass
@@ -127,9 +134,16 @@ class Planner(ABC):
     def solve(self, time_budget: float) -> PlanResult:
         """Plan for at most ``time_budget`` seconds (finite, > 0)."""
         budget = check_time_budget(time_budget)
+        return self.solve_until(time.perf_counter() + budget)
+
+    def solve_until(self, deadline: float) -> PlanResult:
+        """Plan until ``time.perf_counter()`` reaches ``deadline`` (``math.inf``: never; then
+        only the planner's counts, such as :attr:`SearchParams.max_iterations`, stop it)."""
+        if math.isnan(deadline):
+            raise ValueError("deadline must be a number of seconds (time.perf_counter), got NaN")
         stats = PlannerStats()
         t0 = time.perf_counter()
-        result = self._solve(t0 + budget, stats)
+        result = self._solve(deadline, stats)
         stats.time_total_s = time.perf_counter() - t0
         result.stats = stats
         return result
@@ -144,7 +158,9 @@ class SearchParams:
     """Tuning of the forest-connect search (distances are weighted, in configuration units).
 
     ``goal_tolerance`` defaults to ``step_size / 10``; ``distance_weights`` (per joint) overrides
-    the weights a problem supplies in its ``SearchFunctions``.
+    the weights a problem supplies in its ``SearchFunctions``. ``max_iterations`` (None: no
+    cap) stops the search with status ``ITERATION_LIMIT`` once ``stats.iterations`` reaches
+    it: a cap that does not depend on how fast the machine is, unlike the deadline.
     """
 
     step_size: float
@@ -152,6 +168,7 @@ class SearchParams:
     goal_tolerance: float | None = None
     max_extend_steps: int = 500
     distance_weights: tuple[float, ...] | None = None
+    max_iterations: int | None = None
 
     def __post_init__(self) -> None:
         step = _positive_float(self.step_size, "step_size")
@@ -159,6 +176,9 @@ class SearchParams:
         object.__setattr__(self, "n_star", _positive_int(self.n_star, "n_star"))
         steps = _positive_int(self.max_extend_steps, "max_extend_steps")
         object.__setattr__(self, "max_extend_steps", steps)
+        if self.max_iterations is not None:
+            cap = _positive_int(self.max_iterations, "max_iterations")
+            object.__setattr__(self, "max_iterations", cap)
         if self.goal_tolerance is None:
             object.__setattr__(self, "goal_tolerance", step / 10.0)
         else:

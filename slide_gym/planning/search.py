@@ -144,6 +144,12 @@ def forest_connect_search(
     Fixed roots are added first (colliding ones are dropped); afterwards each forest may sample
     roots (Eq. 5) until it holds ``max_*_roots`` trees. Connected start/goal tree pairs that
     ``pair_valid`` rejected are never connected or validated again.
+
+    Stops with ``ITERATION_LIMIT`` once ``stats.iterations`` reaches
+    ``params.max_iterations`` (a ``stats`` shared by several calls shares the cap), and with
+    ``TIMEOUT`` once ``deadline`` has passed, checked first: an iteration the deadline cut
+    short always ends in ``TIMEOUT`` (a give-up), so every other outcome is the same on any
+    machine.
     """
     fns = timed_functions(fns, stats)
     raw_w = params.distance_weights if params.distance_weights is not None else fns.distance_weights
@@ -202,6 +208,14 @@ def forest_connect_search(
                 f"time budget exhausted after {stats.iterations} iterations "
                 f"({forests[0].n_trees} start / {forests[1].n_trees} goal trees, "
                 f"{n_rejected} connected pairs rejected)",
+                extra={"last_pair_info": last_info},
+            )
+        if params.max_iterations is not None and stats.iterations >= params.max_iterations:
+            return finish(
+                PlanStatus.ITERATION_LIMIT,
+                f"iteration limit reached: {stats.iterations} iterations "
+                f"(max_iterations={params.max_iterations}; {forests[0].n_trees} start / "
+                f"{forests[1].n_trees} goal trees, {n_rejected} connected pairs rejected)",
                 extra={"last_pair_info": last_info},
             )
         stats.iterations += 1

@@ -15,7 +15,7 @@ import time
 import numpy as np
 
 from slide_gym.planning.forest import Forest
-from slide_gym.planning.result import SearchParams
+from slide_gym.planning.result import OutOfTime, SearchParams
 from slide_gym.planning.search import SearchFunctions, constrained_extend
 
 
@@ -33,20 +33,22 @@ def shortcut_path(
     attempts: int = 40,
     deadline: float = math.inf,
 ) -> np.ndarray:
-    """Up to ``attempts`` random shortcuts of ``path`` (m, dim); returns the shortened path.
+    """Exactly ``attempts`` random shortcuts of ``path`` (m, dim); returns the shortened path.
 
     Each attempt draws two states i < j - 1 and keeps the constrained extension from state i
     to state j when it reaches j and is shorter than the stretch it replaces. The number of
-    random draws is fixed by ``attempts``, so the same ``rng`` state gives the same result
-    unless ``deadline`` cuts the loop short.
+    attempts (and random draws) is fixed, so the same ``rng`` state gives the same result on
+    any machine. ``deadline`` (``time.perf_counter``) is only a give-up: once it passes, the
+    call raises :class:`~slide_gym.planning.result.OutOfTime` rather than return a path
+    shortened by fewer attempts.
     """
     path = np.asarray(path, dtype=float)
     weights = np.asarray(
         fns.distance_weights if fns.distance_weights is not None else np.ones(path.shape[1])
     )
-    for _ in range(attempts):
+    for done in range(attempts):
         if time.perf_counter() >= deadline:
-            break
+            raise OutOfTime(f"shortcutting ran out of time after {done} of {attempts} attempts")
         i, j = np.sort(rng.choice(len(path), size=2, replace=False)) if len(path) > 2 else (0, 1)
         if j - i < 2:
             continue
@@ -62,6 +64,8 @@ def shortcut_path(
             max_steps=params.max_extend_steps,
             deadline=deadline,
         )
+        if time.perf_counter() >= deadline:  # the extension may have stopped at the deadline
+            raise OutOfTime(f"shortcutting ran out of time in attempt {done + 1} of {attempts}")
         if not reached:
             continue
         bridge = forest.path_to_root(end)[::-1]  # path[i] ... a state within tolerance of path[j]

@@ -3,11 +3,19 @@
 ``TopSlidePlanner`` wires the robot-specific callables (regions, projection, collision, pair
 validation) for a :class:`~slide_gym.planning.problem.TopSlideProblem` into the search core and
 turns its answer into a :class:`PlanResult` with a densified path and everything needed to
-execute it. Executors re-aim the grasp and check routes through its public methods.
+execute it. Executors re-aim the grasp, check routes and plan free-space routes through its
+public methods.
+
+Same seed, same plan, on any machine: every decision is bounded by a count (root draws,
+search iterations with ``SlideParams.max_iterations``, shortcut attempts, the fallback
+transfer planner's iterations); the time budget only decides when to give up (status
+``timeout``), never which plan comes out.
 """
 
 from __future__ import annotations
 
+import itertools
+import math
 import time
 from collections.abc import Sequence
 from typing import Any
@@ -19,7 +27,14 @@ from slide_gym.planning.constraints import ContactBand, SlideConstraints
 from slide_gym.planning.pair import PairValidator
 from slide_gym.planning.problem import TopSlideProblem
 from slide_gym.planning.regions import GoalRegion, StartRegion
-from slide_gym.planning.result import Planner, PlannerStats, PlanResult, PlanStatus, SearchParams
+from slide_gym.planning.result import (
+    OutOfTime,
+    Planner,
+    PlannerStats,
+    PlanResult,
+    PlanStatus,
+    SearchParams,
+)
 from slide_gym.planning.search import (
     PLANNERS,
     DensifyError,
@@ -30,10 +45,6 @@ from slide_gym.planning.search import (
 from slide_gym.planning.smoothing import shortcut_path
 from slide_gym.robot.kinematics import fingertip_chain
 from slide_gym.robot.model import ARM_LOWER, ARM_UPPER
-
-
-class _OutOfTime(Exception):
-    """Densifying the found path would overrun the budget."""
 
 
 class TopSlidePlanner(Planner):
@@ -92,7 +103,10 @@ class TopSlidePlanner(Planner):
             p.max_rotation,
         )
         self.search_params = SearchParams(
-            step_size=p.step, n_star=p.n_star, distance_weights=p.distance_weights
+            step_size=p.step,
+            n_star=p.n_star,
+            distance_weights=p.distance_weights,
+            max_iterations=p.max_iterations,
         )
         self._pair_cache: dict[bytes, tuple[bool, Any]] = {}
         self.max_root_draws = 300
@@ -132,15 +146,24 @@ class TopSlidePlanner(Planner):
 
     # ------------------------------------------------------- for executors
     def reaim_grasp(
-        self, object_pose: Any, q_from: np.ndarray, time_budget: float, u_star: float
+        self,
+        object_pose: Any,
+        q_from: np.ndarray,
+        u_star: float,
+        max_iterations: int | None = None,
+        time_budget: float = math.inf,
     ) -> tuple[bool, dict[str, Any]]:
         """Re-aim the side grasp at a measured plate pose (x, y, yaw) after a real slide.
 
         ``q_from`` is the arm with the fingertip already lifted off the plate. Runs the
         placement half of pair validation (overhang >= ``u_star``, centroid on the table, a
-        collision-free, liftable grasp and a transfer from ``q_from``) for at most
-        ``time_budget`` seconds. Returns ``(ok, info)``; ``info["transfer_path"]`` runs from
-        ``q_from`` to the grasp, ``info["reason"]`` says why not.
+        collision-free, liftable grasp and a transfer from ``q_from``), whose work is bounded
+        by counts: two grasp candidates, IK iterations, and at most ``max_iterations``
+        iterations of the fallback transfer planner per candidate (None:
+        ``GraspParams.transfer_iterations``). ``time_budget`` (seconds, inf: none) is only a
+        give-up: a check it interrupts answers ``info["timeout"] = True``. Returns
+        ``(ok, info)``; ``info["transfer_path"]`` runs from ``q_from`` to the grasp,
+        ``info["reason"]`` says why not.
         """
         if not time_budget > 0.0:  # NaN fails too; inf means no limit
             raise ValueError(f"time_budget must be > 0 seconds, got {time_budget!r}")
@@ -153,23 +176,65 @@ class TopSlidePlanner(Planner):
                 u_star,
                 lifted=True,
                 centroid_margin=0.0,
+                transfer_iterations=max_iterations,
             )
         finally:
             self.validator.deadline = saved
 
     def route_free(
-        self, route: Sequence[np.ndarray], object_pose: Any = None, resolution: float = 0.02
+        self,
+        route: Sequence[np.ndarray],
+        object_pose: Any = None,
+        resolution: float = 0.02,
+        mode: str = "full",
     ) -> bool:
         """Is the joint-space polyline ``route`` free of collisions for the whole robot (finger
-        A included), with the plate at ``object_pose`` (x, y, yaw; None: no plate)?"""
+        A included), with the plate at ``object_pose`` (x, y, yaw; None: no plate)? ``mode``
+        ``"sliding"`` ignores finger A against the table and the plate (for legs that start
+        pressed on it)."""
         self.checker.place_object(None if object_pose is None else np.asarray(object_pose))
         try:
             return all(
-                self.checker.segment_free(a, b, "full", resolution)
+                self.checker.segment_free(a, b, mode, resolution)
                 for a, b in zip(route[:-1], route[1:], strict=True)
             )
         finally:
             self.checker.place_object(None)
+
+    def plan_route(
+        self,
+        q_from: np.ndarray,
+        q_to: np.ndarray,
+        object_pose: Any = None,
+        max_iterations: int | None = None,
+        time_budget: float = math.inf,
+    ) -> tuple[np.ndarray | None, str | None]:
+        """A collision-free joint route ``q_from`` ... ``q_to`` ("full" mode, the plate at
+        ``object_pose`` or none) from the same search core as the fallback transfer planner:
+        an unconstrained CBiRRT of at most ``max_iterations`` iterations (None:
+        ``GraspParams.transfer_iterations``), then 30 shortcuts. ``time_budget`` (seconds)
+        is only a give-up. Returns ``(route, None)`` or ``(None, reason)``.
+        """
+        if not time_budget > 0.0:
+            raise ValueError(f"time_budget must be > 0 seconds, got {time_budget!r}")
+        cap = max_iterations or self.problem.params.grasp.transfer_iterations
+        q_from, q_to = (np.asarray(q, dtype=float) for q in (q_from, q_to))
+        saved = self.validator.deadline
+        self.validator.deadline = time.perf_counter() + time_budget
+        self.checker.place_object(None if object_pose is None else np.asarray(object_pose))
+        try:
+            if any(self.checker.collides(q, "full") for q in (q_from, q_to)):
+                return None, "an end of the route is in collision"
+            route = self.validator.plan_route(q_from, q_to, cap)
+            timed_out = time.perf_counter() >= self.validator.deadline
+        finally:
+            self.checker.place_object(None)
+            self.validator.deadline = saved
+        if timed_out:
+            return None, "time budget ran out while planning the route"
+        if route is None:
+            return None, f"no collision-free route within {cap} search iterations"
+        return route, None
 
     # ---------------------------------------------------------------- solve
     def _draw(self, region: Any, deadline: float, stats: PlannerStats) -> np.ndarray | str:
@@ -188,7 +253,8 @@ class TopSlidePlanner(Planner):
         """Roots drawn before the search (Init of Algorithm 1, or the baselines' fixed roots)."""
         regions = (("start", self.start_region), ("goal", self.goal_region))
         if self.name == "cbirrt":
-            while True:
+            cap = self.search_params.max_iterations
+            for _ in range(cap) if cap is not None else itertools.count():
                 drawn = [self._draw(r, deadline, stats) for _, r in regions]
                 for (side, _), q in zip(regions, drawn, strict=True):
                     if isinstance(q, str):
@@ -200,6 +266,7 @@ class TopSlidePlanner(Planner):
                     return [drawn[0]], [drawn[1]], None
                 if time.perf_counter() >= deadline:
                     return [], [], "timeout:pair"
+            return [], [], "limit:pair"
         roots: list[list] = [[], []]
         for k, (side, region) in enumerate(regions):
             if k == 1 and self.name == "cbirrt2":
@@ -223,6 +290,12 @@ class TopSlidePlanner(Planner):
         starts, goals, why = self._initial_roots(search_deadline, stats)
         if why is not None:
             what, side = why.split(":")
+            if what == "limit":
+                reason = (
+                    f"iteration limit reached: no valid start/goal pair in "
+                    f"{self.search_params.max_iterations} draws (max_iterations)"
+                )
+                return PlanResult(PlanStatus.ITERATION_LIMIT, reason, extra=self._extra())
             if what == "exhausted":
                 reason = (
                     f"no {side} configuration: {self.max_root_draws} draws from C_{side[0]} "
@@ -243,23 +316,26 @@ class TopSlidePlanner(Planner):
             if not res.solved:
                 res.extra = {**self._extra(), **res.extra, "densify_failures": failures}
                 return res
-            path = shortcut_path(
-                res.path,
-                fns,
-                self.search_params,
-                self.rng,
-                self.problem.params.shortcut_attempts,
-                search_deadline,
-            )
             try:
+                path = shortcut_path(
+                    res.path,
+                    fns,
+                    self.search_params,
+                    self.rng,
+                    self.problem.params.shortcut_attempts,
+                    search_deadline,
+                )
                 dense = densify(
                     path,
                     self.problem.params.path_resolution,
                     self._dense_project(hard),
                     self.tip_distance,
                 )
-            except (DensifyError, _OutOfTime) as exc:
-                if isinstance(exc, _OutOfTime) or time.perf_counter() >= search_deadline:
+            except OutOfTime:
+                reason = "found a path but shortcutting and densifying it did not fit in the budget"
+                return PlanResult(PlanStatus.TIMEOUT, reason, extra=self._extra())
+            except DensifyError:
+                if time.perf_counter() >= search_deadline:
                     reason = "found a path but densifying it did not fit in the time budget"
                     return PlanResult(PlanStatus.TIMEOUT, reason, extra=self._extra())
                 failures += 1
@@ -269,7 +345,7 @@ class TopSlidePlanner(Planner):
     def _dense_project(self, hard: float):
         def project(q: np.ndarray, q_near: np.ndarray) -> np.ndarray | None:
             if time.perf_counter() >= hard:
-                raise _OutOfTime
+                raise OutOfTime("densifying the path ran out of time")
             q = self.constraints.project(q, q_near)
             return None if q is None or self.collides(q) else q
 

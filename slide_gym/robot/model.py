@@ -52,6 +52,16 @@ DH.setflags(write=False)
 ARM_LOWER = np.array([-2.6, -2.0, -2.8, -0.9, -4.76, -1.6, -3.0])
 ARM_UPPER = np.array([2.6, 2.0, 2.8, 3.1, 1.24, 1.6, 3.0])
 ARM_TORQUE_LIMITS = np.array([25.0, 20.0, 15.0, 15.0, 5.0, 5.0, 5.0])
+"""N m: limit of the joint position controller's output (the motor's correction), Barrett's
+``control_signal_limit`` of ``joint_position_control`` for the 7-DOF WAM (libbarrett,
+``config/wam7w.conf``). As on the real arm, gravity compensation is added outside this limit:
+joint 2 alone needs 21.7 N m at READY_ARM_Q and up to ~28 N m in the expert's episodes."""
+ARM_PEAK_TORQUES = np.array([82.1, 109.5, 65.2, 31.2, 12.4, 12.4, 2.2])
+"""N m: the most torque a joint can ever take, motor plus gravity feedforward together: the
+Pucks' motor current limits through each joint's transmission, as computed in Barrett's
+open-source WAM driver OWD (``openwam/Joint.cc``, ``MAX_MECHANICAL_TORQ_EXPECTED``; bounded by
+the cables' breaking strength). :class:`~slide_gym.robot.wam_t42.WamT42` caps the motor of
+joint i at ``min(ARM_TORQUE_LIMITS[i], ARM_PEAK_TORQUES[i] - |feedforward_i|)``."""
 ARM_VELOCITY_LIMITS = np.full(7, 2.0)
 ARM_MASSES = (10.77, 3.87, 1.80, 2.17, 0.36, 0.41, 0.08)
 BASE_SIZE = (0.36, 0.28, 0.16)
@@ -65,7 +75,14 @@ Found at development time by Gauss-Newton IK on the DH model plus the hand offse
 joint axes lie along world y and finger A sits on the far, +x, side), rounded to 1e-4 rad
 and checked in PyBullet (flange at (0.524, 0, 0.254), no contacts).
 """
-for _a in (ARM_LOWER, ARM_UPPER, ARM_TORQUE_LIMITS, ARM_VELOCITY_LIMITS, READY_ARM_Q):
+for _a in (
+    ARM_LOWER,
+    ARM_UPPER,
+    ARM_TORQUE_LIMITS,
+    ARM_PEAK_TORQUES,
+    ARM_VELOCITY_LIMITS,
+    READY_ARM_Q,
+):
     _a.setflags(write=False)
 
 # ----------------------------------------------------------------------------- T42 hand
@@ -156,10 +173,15 @@ class ArmGains:
 
     Each step a motor drives its joint velocity toward
     ``position_gain * (q_target - q) / dt + velocity_gain * (dq_target - dq)`` (plus dq),
-    within the joint's torque limit. With ``gravity_compensation`` the gravity torque
-    (clipped to the same limits), computed at each new arm target, is added as a feedforward
-    every physics step: joint 2 needs
-    about 21.7 N m at READY_ARM_Q, more than its 20 N m limit, so without it the arm sags.
+    within the controller's output limit ``ARM_TORQUE_LIMITS``. With
+    ``gravity_compensation`` the gravity torque, computed at each new arm target, is added as
+    a feedforward every physics step, as libbarrett adds gravity compensation outside its
+    controller's limit: joint 2 needs about 21.7 N m at READY_ARM_Q, more than its 20 N m
+    controller limit, so without it the arm sags. The feedforward is clipped to
+    ``ARM_TORQUE_LIMITS`` too (an unclipped one, up to ~28 N m on joint 2, changes the
+    expert's episodes), and the motor's cap shrinks by the feedforward's size wherever the
+    sum would pass the joint's ``ARM_PEAK_TORQUES``: motor and feedforward together never
+    exceed it (with these limits that binds on joint 7 only, whose peak is 2.2 N m).
     """
 
     position_gains: tuple[float, ...] = (0.3,) * 7

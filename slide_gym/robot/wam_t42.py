@@ -1,8 +1,10 @@
 """The WAM arm + T42 hand in a :class:`~slide_gym.sim.Simulation`.
 
-Arm: PyBullet position motors on the 7 joints, capped at the published torque limits, plus
-a gravity-compensation feedforward, updated with each arm target and applied every physics
-step (see :class:`ArmGains`).
+Arm: PyBullet position motors on the 7 joints plus a gravity-compensation feedforward (clipped
+to ``ARM_TORQUE_LIMITS``), updated with each arm target and applied every physics step (see
+:class:`ArmGains`). Each motor is capped at ``min(ARM_TORQUE_LIMITS, ARM_PEAK_TORQUES -
+|feedforward|)`` (the controller's output limit, and what the joint has left once the
+feedforward is applied), so motor plus feedforward never exceeds ``ARM_PEAK_TORQUES``.
 
 Hand: PyBullet has no joint springs, so the finger motors are switched off (VELOCITY_CONTROL,
 force 0) and :meth:`WamT42.apply_hand_torques` applies the spring + tendon torque with
@@ -41,6 +43,7 @@ from slide_gym.assets import robot_urdf
 from slide_gym.robot.kinematics import urdf_joints
 from slide_gym.robot.model import (
     ARM_JOINTS,
+    ARM_PEAK_TORQUES,
     ARM_TORQUE_LIMITS,
     FINGER_JOINTS,
     ArmGains,
@@ -201,23 +204,37 @@ class WamT42:
         self.set_arm_targets(arm_q)
 
     def set_arm_targets(self, q: np.ndarray, dq: np.ndarray | None = None) -> None:
-        """Position control of the 7 arm joints (optional target velocities, rad/s)."""
+        """Position control of the 7 arm joints (optional target velocities, rad/s).
+
+        The feedforward is updated first; each motor is then capped so that motor plus
+        feedforward stays within the joint's ``ARM_PEAK_TORQUES`` (see :meth:`motor_caps`).
+        """
         g = self.arm_gains
+        if g.gravity_compensation:
+            self._update_gravity_feedforward()
         self.sim.client.setJointMotorControlArray(
             self.body,
             self._arm_list,
             pb.POSITION_CONTROL,
             targetPositions=np.asarray(q, dtype=float).reshape(7).tolist(),
             targetVelocities=[0.0] * 7 if dq is None else np.asarray(dq, float).tolist(),
-            forces=ARM_TORQUE_LIMITS.tolist(),
+            forces=self.motor_caps().tolist(),
             positionGains=list(g.position_gains),
             velocityGains=list(g.velocity_gains),
         )
-        if g.gravity_compensation:
-            self._update_gravity_feedforward()
+
+    def arm_feedforward(self) -> np.ndarray:
+        """The gravity feedforward (7,) applied to the arm joints every physics step (N m)."""
+        return np.array([self._feedforward[i] for i in self._arm_dof])
+
+    def motor_caps(self) -> np.ndarray:
+        """The arm motors' torque caps (7,): ``min(ARM_TORQUE_LIMITS, ARM_PEAK_TORQUES -
+        |feedforward|)``, never below 0, so ``|motor + feedforward| <= ARM_PEAK_TORQUES``."""
+        room = ARM_PEAK_TORQUES - np.abs(self.arm_feedforward())
+        return np.clip(np.minimum(ARM_TORQUE_LIMITS, room), 0.0, None)
 
     def _update_gravity_feedforward(self) -> None:
-        """Gravity torques at the current configuration, clipped to the torque limits.
+        """Gravity torques at the current configuration, clipped to ``ARM_TORQUE_LIMITS``.
 
         Computed when a new arm target arrives (the control rate: the arm moves a few
         hundredths of a radian between targets) and applied every physics step.

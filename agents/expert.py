@@ -53,7 +53,7 @@ from slide_gym.planning.api import (
 )
 from slide_gym.planning.result import PlanStatus
 from slide_gym.robot.kinematics import FastChain, fingertip_chain, grasp_chain
-from slide_gym.robot.model import ARM_LOWER, ARM_UPPER
+from slide_gym.robot.model import ARM_LOWER, ARM_UPPER, MIN_CONTACT_SIZE
 
 APPROACH_RAISES = (0.15, 0.25, 0.35)
 """m above the pre-press pose: the approach goes via a pose raised by the first of these whose
@@ -107,6 +107,7 @@ class SlideGraspExpert:
         self.obj: ObjectShape | None = None
         self.table: TableShape | None = None
         self.rng = np.random.default_rng(self.seed)
+        self.centroid_margin = slide_params.centroid_margin  # set per plate by _slide_params
         self.report = ExpertReport()
 
     # ------------------------------------------------------------------ act
@@ -166,14 +167,26 @@ class SlideGraspExpert:
         return np.array([float(pose[0]), float(pose[1]), quat_yaw(pose[3:7])])
 
     def _slide_params(self) -> list[tuple[str, SlideParams]]:
-        """The planner settings to try in turn: the margins this plate leaves room for (a
-        small plate cannot overhang by u* and keep its centroid far inside the edge), then
-        relaxed ones."""
+        """The planner settings to try in turn: the margins this plate leaves room for, then
+        relaxed ones.
+
+        A plate's overhang plus its centroid's depth inside the edge cannot exceed its
+        circumradius. Both start from their least useful values (a grasp's
+        ``grasp_u_star`` + 2 mm, ``min_centroid_margin``) and share what room is left, up to
+        the full margins of ``slide_params``: large plates get those, small ones less.
+        """
         assert self.obj is not None
-        sp = self.slide_params
-        room = 0.8 * (self.obj.circumradius - sp.u_star)
-        margin = min(sp.centroid_margin, max(self.params.min_centroid_margin, room))
-        strict = dataclasses.replace(sp, centroid_margin=margin)
+        sp, p = self.slide_params, self.params
+        room = self.obj.circumradius - 0.003
+        u_least, m_least = p.grasp_u_star + 0.002, p.min_centroid_margin
+        extra = room - u_least - m_least
+        if extra <= 0.0:
+            u_plan, margin = max(MIN_CONTACT_SIZE, room - m_least), m_least
+        else:
+            u_plan = min(sp.u_star, u_least + 0.5 * extra)
+            margin = min(sp.centroid_margin, room - u_plan)
+        strict = dataclasses.replace(sp, u_star=u_plan, centroid_margin=margin)
+        self.centroid_margin = margin
         return [("strict", strict), ("relaxed", relaxed_slide_params(strict))]
 
     def _budget_left(self) -> float:
@@ -322,11 +335,12 @@ class SlideGraspExpert:
         edge_point = np.asarray(ring.interpolate(ring.project(centroid)).coords[0])
         inside = self.table.polygon.contains(centroid)
         depth = centroid.distance(ring) * (1.0 if inside else -1.0)
-        if depth >= self.params.pull_back_margin:
+        keep = min(self.params.pull_back_margin, self.centroid_margin)
+        if depth >= keep:
             return self._lift_off()
         inward = (pose[:2] - edge_point) * (1.0 if inside else -1.0)
         inward /= max(float(np.linalg.norm(inward)), 1e-9)
-        shift = np.r_[inward * (self.params.pull_back_margin - depth + 0.005), 0.0]
+        shift = np.r_[inward * (keep - depth + 0.005), 0.0]
         line = self._cartesian(self.tip, self.q_slide_end, shift)
         assert self.planner is not None
         if line is None or not self.planner.route_free(line, None, mode="sliding"):

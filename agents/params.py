@@ -8,6 +8,7 @@ import math
 from dataclasses import dataclass
 
 from slide_gym.planning.api import GraspParams, SlideParams
+from slide_gym.robot.model import MIN_CONTACT_SIZE
 
 EXPERT_SLIDE_PARAMS = SlideParams(
     dz=(0.012, 0.02),
@@ -25,8 +26,9 @@ EXPERT_SLIDE_PARAMS = SlideParams(
 - press points at least 8 mm inside the plate's outline (a rounded tip slips off an edge),
   and of those, the ones within 1.5 cm of the one nearest the plate's centroid (the plate
   then hardly spins about the tip);
-- a planned overhang of 4 cm (1 cm more than the task's u*) with the centroid at least
-  1.5 cm inside the edge;
+- a planned overhang of 4 cm (2 cm more than the hand's u*) with the centroid at least
+  1.5 cm inside the edge, for plates large enough (smaller ones get what room they leave:
+  :meth:`agents.expert.SlideGraspExpert._slide_params`);
 - at most 0.8 rad of plate rotation: in larger turns the plate slips about the fingertip;
 - the grasp approached from a stand-off 6 cm out, clear of the plate's corners."""
 
@@ -88,7 +90,7 @@ class ExpertParams:
     strict_plan_iterations: int = 300  # search iterations of the plan with full margins
     route_iterations: int = 200  # route planner iterations for the approach, if needed
     min_centroid_margin: float = 0.005  # m, for plates too small for the full margin
-    grasp_u_star: float = 0.032  # m, least real overhang to go for the grasp (task: 0.03)
+    grasp_u_star: float = MIN_CONTACT_SIZE + 0.002  # m, least real overhang to grasp (u* + 2 mm)
 
     def __post_init__(self) -> None:
         for name, value in dataclasses.asdict(self).items():
@@ -103,12 +105,12 @@ class ExpertParams:
 def relaxed_slide_params(params: SlideParams) -> SlideParams:
     """Settings for when no plan with the full margins comes within its iteration cap: any
     plate turn up to 1.6 rad, press points up to 3 cm from the centroid, a planned overhang
-    of 3.5 cm with the centroid 0.5 cm inside the edge, and no iteration cap."""
+    of u* + 1 cm (3 cm) with the centroid 0.5 cm inside the edge, and no iteration cap."""
     return dataclasses.replace(
         params,
         max_iterations=None,
         max_rotation=max(params.max_rotation, 1.6),
         press_radius=None if params.press_radius is None else max(params.press_radius, 0.03),
-        u_star=min(params.u_star, 0.035),
+        u_star=min(params.u_star, MIN_CONTACT_SIZE + 0.01),
         centroid_margin=min(params.centroid_margin, 0.005),
     )

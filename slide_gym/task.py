@@ -22,6 +22,7 @@ from slide_gym.geometry import (
     transform_polygon,
 )
 from slide_gym.geometry.procedural import procedural_object
+from slide_gym.robot.model import MIN_CONTACT_SIZE
 from slide_gym.sim import Simulation
 
 REACH_MIN = 0.30
@@ -34,8 +35,9 @@ REACH_MAX = 0.85
 class TaskParams:
     """Success thresholds and contact materials (SI units)."""
 
-    u_star: float = 0.03
-    """Minimum overhang (m) for a side grasp: about the fingertip pad's contact length."""
+    u_star: float = MIN_CONTACT_SIZE
+    """Minimum overhang (m) for a side grasp: the hand's minimum contact size u*
+    (:data:`slide_gym.robot.model.MIN_CONTACT_SIZE`, 2 cm)."""
     lift_height: float = 0.05
     """How far (m) the object's lowest point must rise above the table top for a lift."""
     lift_hold_s: float = 1.0

@@ -32,7 +32,7 @@ from slide_gym.planning.api import (
     solve_ik,
 )
 from slide_gym.robot.kinematics import fast_chain, grasp_chain, robot_chain
-from slide_gym.robot.model import ARM_JOINTS, ARM_LOWER, ARM_UPPER, READY_ARM_Q
+from slide_gym.robot.model import ARM_JOINTS, ARM_LOWER, ARM_UPPER, MIN_CONTACT_SIZE, READY_ARM_Q
 
 TABLE = get_table("square")
 BAND = ContactBand(beta0=0.9, dbeta=0.1, z_lo=-0.021, z_hi=-0.001, z_surface=0.004)
@@ -262,7 +262,7 @@ def test_regions_sample_valid_contacts(constraints, checker):
 def test_slide_params_validation():
     p = SlideParams()
     assert p.contact_height_range(0.004) == pytest.approx((-0.021, -0.001))
-    assert p.n_star == 100 and p.dbeta == 0.1 and p.u_star == 0.03
+    assert p.n_star == 100 and p.dbeta == 0.1 and p.u_star == MIN_CONTACT_SIZE == 0.02
     with pytest.raises(ValueError, match="dz"):
         SlideParams(dz=(0.03, 0.01))
     with pytest.raises(ValueError, match="beta0"):

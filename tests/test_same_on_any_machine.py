@@ -27,7 +27,7 @@ BUDGET = 600.0
 
 def _plan(seed: int):
     """The ``slide-gym bench plan`` query for the circle on the square table, ``seed``: its
-    pair validation needs the fallback transfer planner (14 iterations for seed 2)."""
+    pair validation needs the fallback transfer planner for seed 4."""
     shape, table = get_object("circle"), get_table("square")
     pose_rng, plan_rng = seeded_generators(seed)
     pose = sample_start_pose(shape, table, pose_rng, TaskParams().start_margin)
@@ -37,11 +37,11 @@ def _plan(seed: int):
 
 
 def test_plan_is_the_same_with_a_slow_clock(slow_clock):
-    fast = _plan(2)
+    fast = _plan(4)
     assert fast.solved, fast.reason
     assert fast.extra["validator_counts"]["fallback"] >= 1  # the formerly time-capped part ran
     slow_clock(SLOWDOWN)
-    slow = _plan(2)
+    slow = _plan(4)
     assert slow.solved, slow.reason
     np.testing.assert_array_equal(slow.path, fast.path)
     assert slow.stats.counts() == fast.stats.counts()
@@ -104,7 +104,7 @@ def test_shortcuts_give_up_at_the_deadline_rather_than_stop_early():
 
 def test_iteration_capped_plan_stops_at_the_cap_with_its_own_status():
     shape, table = get_object("square"), get_table("square")
-    params = SlideParams(max_iterations=1, u_star=0.2)  # no pair can ever be valid
+    params = SlideParams(max_iterations=1, max_rotation=1e-12)  # no pair can ever be valid
     problem = TopSlideProblem(shape, table, (0.6, 0.0, 0.0), params)
     with TopSlidePlanner(problem, "regions", seed=0) as planner:
         res = planner.solve_until(math.inf)

@@ -40,7 +40,7 @@ from slide_gym.robot.kinematics import (
     FastChain,
     grasp_chain,
 )
-from slide_gym.robot.model import ARM_LOWER, ARM_UPPER
+from slide_gym.robot.model import ARM_LOWER, ARM_UPPER, PINCH_DEPTH, PINCH_EDGE_CLEARANCE
 
 
 @dataclass(frozen=True)
@@ -57,8 +57,8 @@ class GraspParams:
     100 keeps all of them with a margin and still stops a hopeless search early.
     """
 
-    depth: float = 0.015  # the fingertips reach this far in from the overhang's outer end
-    edge_clearance: float = 0.005  # least gap between the fingertips and the table edge
+    depth: float = PINCH_DEPTH  # the fingertips reach this far in from the overhang's outer end
+    edge_clearance: float = PINCH_EDGE_CLEARANCE  # least gap between fingertips and table edge
     lift: float = 0.08  # fingertip lift off the plate after sliding; the grasp must rise this
     retreat: float = 0.04  # pre-grasp stand-off outside the edge, along the approach
     rise: float = 0.08  # the pre-grasp is approached from this high above the grasp

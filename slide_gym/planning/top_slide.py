@@ -287,6 +287,14 @@ class TopSlidePlanner(Planner):
         if self.problem.goal_band.is_empty:
             reason = "no stretch of the table edge allows a side grasp within the arm's reach"
             return PlanResult(PlanStatus.INFEASIBLE, reason, extra=self._extra())
+        reach, p = self.problem.object.circumradius, self.problem.params
+        if reach - p.centroid_margin < p.u_star:
+            reason = (
+                f"the plate cannot overhang u* = {p.u_star:.3g} m with its centroid "
+                f"{p.centroid_margin:.3g} m inside the edge: no point of it lies farther than "
+                f"{reach:.3g} m from its centroid"
+            )
+            return PlanResult(PlanStatus.INFEASIBLE, reason, extra=self._extra())
         starts, goals, why = self._initial_roots(search_deadline, stats)
         if why is not None:
             what, side = why.split(":")

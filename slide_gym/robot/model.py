@@ -110,6 +110,14 @@ PROXIMAL_MASS = 0.019
 DISTAL_LENGTH = 0.048  # pivot to tip apex
 TIP_RADIUS = 0.0105  # rounded tip: half-cylinder whose axis runs along the finger width
 DISTAL_THICKNESS = 2 * TIP_RADIUS
+PINCH_DEPTH = 0.015
+"""How far (m) the fingertips reach onto a plate's overhang in a side pinch: the rounded tip
+(arc radius TIP_RADIUS) and a few millimetres of pad behind it."""
+PINCH_EDGE_CLEARANCE = 0.005
+"""Least gap (m) between the pinching fingertips and the table's edge face."""
+MIN_CONTACT_SIZE = PINCH_DEPTH + PINCH_EDGE_CLEARANCE
+"""The hand's minimum contact size u* (m): the least overhang past a table edge that a side
+pinch can close on. Plates of any size share it (it is the hand's, not the plate's)."""
 DISTAL_MASS = 0.024
 PAD_FRICTION = 1.25
 """Pad lateral friction. PyBullet multiplies coefficients: with the object's 0.8 this gives

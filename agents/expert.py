@@ -108,6 +108,7 @@ class SlideGraspExpert:
         self.table: TableShape | None = None
         self.rng = np.random.default_rng(self.seed)
         self.centroid_margin = slide_params.centroid_margin  # set per plate by _slide_params
+        self._steps = 0  # actions returned so far
         self.report = ExpertReport()
 
     # ------------------------------------------------------------------ act
@@ -120,9 +121,13 @@ class SlideGraspExpert:
         while not self.queue and self.phase not in ("done", "failed"):
             self._advance(obs)
         if not self.queue:
+            self._steps += 1
             return self._action(self.q_cmd, self.hand_cmd)
         step = self.queue.popleft()
+        if step.phase != self.phase or not self.report.phase_steps:
+            self.report.phase_steps.append((step.phase, self._steps))
         self.phase = step.phase
+        self._steps += 1
         if step.track:
             target = step.q + self.tracker.joint_offset(step.q, step.object_xy, obs)
         else:  # untracked legs start from the command, corrections included

@@ -27,6 +27,8 @@ class ExpertReport:
             ``"iteration_limit"``, ``"infeasible"``), ``None`` before any.
         failure: why the expert gave up (or why the scene was rejected), ``None`` otherwise.
         events: notable moments, in order (failed plan attempts, pull-backs, slide checks).
+        phase_steps: ``(phase, step)`` each time a phase begins: the env step (0 = the first
+            action) of its first action, in order (a replan's phases appear again).
         object_predicted_pose: ``[x, y, yaw]`` Eq. 2 predicts after the (last) slide.
         object_slid_pose: ``[x, y, yaw]`` measured after the (last) slide and lift-off.
         slide_error_m, slide_error_rad: position and yaw error of the slid pose against the
@@ -39,6 +41,7 @@ class ExpertReport:
     plan_status: str | None = None
     failure: str | None = None
     events: list[str] = field(default_factory=list)
+    phase_steps: list[tuple[str, int]] = field(default_factory=list)
     object_predicted_pose: list[float] | None = None
     object_slid_pose: list[float] | None = None
     slide_error_m: float | None = None
@@ -123,10 +126,10 @@ class EpisodeRecord:
         are ignored; keys missing from older files take their defaults)."""
         mine = {f.name for f in dataclasses.fields(cls)} - {"expert"}
         theirs = {f.name for f in dataclasses.fields(ExpertReport)}
-        return cls(
-            **{k: v for k, v in data.items() if k in mine},
-            expert=ExpertReport(**{k: v for k, v in data.items() if k in theirs}),
-        )
+        report = {k: v for k, v in data.items() if k in theirs}
+        if "phase_steps" in report:  # JSON has no tuples
+            report["phase_steps"] = [(str(p), int(k)) for p, k in report["phase_steps"]]
+        return cls(**{k: v for k, v in data.items() if k in mine}, expert=ExpertReport(**report))
 
 
 def _copy(value: Any) -> Any:

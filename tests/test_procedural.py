@@ -8,14 +8,13 @@ import pytest
 from shapely.ops import polylabel
 
 import slide_gym  # noqa: F401 - registers the environments
-from slide_gym.geometry import TABLES
+from slide_gym.geometry import TABLES, diameter
 from slide_gym.geometry.procedural import (
     MIN_INRADIUS,
     MIN_WIDTH,
     SIZE_RANGE,
     THICKNESS_RANGE,
     _box_sides,
-    diameter,
     procedural_object,
 )
 from slide_gym.task import fit_procedural_object

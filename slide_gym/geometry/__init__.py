@@ -18,6 +18,7 @@ from slide_gym.geometry.catalog import (
 from slide_gym.geometry.polygons import (
     Overhang,
     convex_pieces,
+    diameter,
     is_graspable,
     make_polygon,
     outline_descriptor,
@@ -28,6 +29,12 @@ from slide_gym.geometry.polygons import (
     transform_polygon,
     wrap_angle,
 )
+from slide_gym.geometry.shape_json import (
+    OBJECT_KEYS,
+    TABLE_KEYS,
+    load_object_json,
+    load_table_json,
+)
 from slide_gym.geometry.shapes import (
     DEFAULT_DENSITY,
     DEFAULT_SLAB_THICKNESS,
@@ -36,13 +43,9 @@ from slide_gym.geometry.shapes import (
     MAX_THICKNESS,
     MIN_SIZE,
     MIN_THICKNESS,
-    OBJECT_KEYS,
     TABLE_HEIGHT_RANGE,
-    TABLE_KEYS,
     ObjectShape,
     TableShape,
-    load_object_json,
-    load_table_json,
 )
 
 __all__ = [
@@ -65,6 +68,7 @@ __all__ = [
     "TableShape",
     "catalog_summary",
     "convex_pieces",
+    "diameter",
     "get_object",
     "get_table",
     "is_graspable",

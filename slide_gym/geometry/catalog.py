@@ -20,13 +20,8 @@ from typing import Any
 import numpy as np
 import shapely
 
-from slide_gym.geometry.shapes import (
-    ObjectShape,
-    TableShape,
-    closest,
-    load_object_json,
-    load_table_json,
-)
+from slide_gym.geometry.shape_json import closest, load_object_json, load_table_json
+from slide_gym.geometry.shapes import ObjectShape, TableShape
 
 
 def _ngon(radius: float, n: int, cx: float = 0.0, cy: float = 0.0) -> np.ndarray:

@@ -287,3 +287,18 @@ def overhang(object_world: shapely.Polygon, table: shapely.Polygon) -> Overhang:
 def is_graspable(object_world: shapely.Polygon, table: shapely.Polygon, u_star: float) -> bool:
     """True if the overhang is at least ``u_star`` and the object's centroid is on the table."""
     return overhang(object_world, table).graspable(u_star)
+
+
+def diameter(poly: BaseGeometry) -> float:
+    """Largest distance (m) between two points of ``poly``: its size across (the convex hull's
+    diameter)."""
+    minx, miny, maxx, maxy = poly.bounds
+    box = max(maxx - minx, maxy - miny)
+    if not math.isfinite(box) or box > 100.0:
+        return box  # far too large for anything here; avoid squaring huge numbers
+    hull = np.asarray(poly.convex_hull.exterior.coords)[:-1]
+    best = 0.0
+    for start in range(0, len(hull), 256):
+        d = hull[start : start + 256, None, :] - hull[None, :, :]
+        best = max(best, float(np.sqrt((d**2).sum(axis=2)).max()))
+    return best

@@ -23,6 +23,7 @@ import shapely
 import shapely.affinity
 from shapely.ops import polylabel
 
+from slide_gym.geometry.polygons import diameter
 from slide_gym.geometry.shapes import ObjectShape
 
 SIZE_RANGE = (0.04, 0.30)
@@ -100,12 +101,6 @@ def _with_holes(rng: np.random.Generator, plate: shapely.Polygon) -> shapely.Pol
             break  # the hole would leave no room to press
         holes.append(hole)
     return shapely.Polygon(plate.exterior, [h.exterior.coords for h in holes])
-
-
-def diameter(poly: shapely.Polygon) -> float:
-    """The largest distance (m) between two points of ``poly``: its size across."""
-    pts = shapely.get_coordinates(poly.convex_hull)
-    return float(np.linalg.norm(pts[:, None] - pts[None], axis=-1).max())
 
 
 def _box_sides(poly: shapely.Polygon) -> tuple[float, float]:

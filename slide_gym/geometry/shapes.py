@@ -25,11 +25,8 @@ Conventions (public contract):
 
 from __future__ import annotations
 
-import difflib
-import json
 import math
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -38,6 +35,7 @@ import shapely.affinity
 
 from slide_gym.geometry.polygons import (
     convex_pieces,
+    diameter,
     make_polygon,
     outline_descriptor,
     point_cloud,
@@ -53,23 +51,6 @@ MAX_SIZE = 0.5  # m: about the width of the arm's reach band on the tables (0.30
 MAX_COORDINATE = 1000.0
 """Largest |x| or |y| (m) accepted in a vertex list: anything beyond is a unit mistake (and
 1e200 would overflow the area computations)."""
-OBJECT_KEYS: tuple[str, ...] = ("name", "vertices", "holes", "thickness", "density")
-"""Keys of an object JSON file ("name" and "vertices" required)."""
-TABLE_KEYS: tuple[str, ...] = ("name", "vertices", "height", "slab_thickness")
-"""Keys of a table JSON file ("name", "vertices" and "height" required)."""
-
-
-def closest(word: str, choices: tuple[str, ...] | list[str]) -> str | None:
-    """The choice most like ``word`` (case-insensitive, difflib; else the one choice that
-    starts with it, like "slab" for "slab_thickness"), or None if none is close."""
-    lowered = {c.lower(): c for c in choices}
-    word = str(word).lower()
-    match = difflib.get_close_matches(word, list(lowered), n=1, cutoff=0.6)
-    if not match and len(word) >= 3:
-        match = [c for c in lowered if c.startswith(word)]
-    return lowered[match[0]] if len(match) == 1 else None
-
-
 def _check_range(value: float, lo: float, hi: float, what: str, span: str) -> float:
     """``value`` as a float if it is a number within [lo, hi] (metres), else a ValueError
     that also spots millimetres given for metres."""
@@ -178,7 +159,7 @@ class ObjectShape:
         )
         object.__setattr__(self, "thickness", thickness)
         object.__setattr__(self, "density", _check_positive(self.density, f"{what} density"))
-        size = _outline_size(poly)
+        size = diameter(poly)
         if not MIN_SIZE * (1 - 1e-9) <= size <= MAX_SIZE * (1 + 1e-9):
             raise ValueError(
                 f"{what} is {_cm(size)} across (its largest extent), "
@@ -221,7 +202,7 @@ class ObjectShape:
     def size(self) -> float:
         """Largest distance between two points of the outline (m): the plate's largest
         extent, whatever its orientation. Bounded by ``MIN_SIZE`` and ``MAX_SIZE``."""
-        return _outline_size(self.polygon)
+        return diameter(self.polygon)
 
     @property
     def max_extent(self) -> float:
@@ -340,100 +321,6 @@ class TableShape:
         }
 
 
-def _read_json(
-    path: str | Path, required: tuple[str, ...], kind: str
-) -> tuple[Path, dict[str, Any]]:
-    """Read a JSON object with the required keys and no unknown ones; ValueError naming the
-    file (and the closest valid key) otherwise."""
-    path = Path(path)
-    try:
-        data = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise ValueError(f"{path}: file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ValueError(f"{path}: cannot read file ({exc})") from None
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{path}: not valid JSON ({exc})") from None
-    if not isinstance(data, dict):
-        raise ValueError(f"{path}: expected a JSON object {{...}}, got {type(data).__name__}")
-    allowed, other = (OBJECT_KEYS, TABLE_KEYS) if kind == "object" else (TABLE_KEYS, OBJECT_KEYS)
-    for key in data:
-        if key in allowed:
-            continue
-        near = closest(key, allowed)
-        if near is not None:
-            hint = f"did you mean {near!r}? "
-        elif key in other:
-            hint = f"{key!r} belongs in {'a table' if kind == 'object' else 'an object'} file; "
-        else:
-            hint = ""
-        raise ValueError(
-            f"{path}: unknown key {key!r} in {kind} file; {hint}valid keys: {', '.join(allowed)}"
-        )
-    missing = [k for k in required if k not in data]
-    if missing:
-        raise ValueError(f"{path}: missing key(s) {missing}; required keys are {list(required)}")
-    if not isinstance(data["name"], str):
-        raise ValueError(f"{path}: 'name' must be a string, got {data['name']!r}")
-    if not isinstance(data["vertices"], list):
-        raise ValueError(f"{path}: 'vertices' must be a list of [x, y] pairs")
-    return path, data
-
-
-def _wrap(path: Path, build: Any) -> Any:
-    """Run ``build()`` and prefix any ValueError with the file name."""
-    try:
-        return build()
-    except ValueError as exc:
-        raise ValueError(f"{path}: {exc}") from None
-
-
-def load_object_json(path: str | Path) -> ObjectShape:
-    """Load an object from JSON (see module docstring); vertices are recentred."""
-    path, data = _read_json(path, ("name", "vertices"), "object")
-    holes = data.get("holes", [])
-    if not isinstance(holes, list):
-        raise ValueError(f"{path}: 'holes' must be a list of vertex lists")
-    return _wrap(
-        path,
-        lambda: ObjectShape.from_vertices(
-            data["name"],
-            data["vertices"],
-            holes,
-            data.get("thickness", DEFAULT_THICKNESS),
-            data.get("density", DEFAULT_DENSITY),
-        ),
-    )
-
-
-def load_table_json(path: str | Path) -> TableShape:
-    """Load a table from JSON (see module docstring)."""
-    path, data = _read_json(path, ("name", "vertices", "height"), "table")
-    return _wrap(
-        path,
-        lambda: TableShape.from_vertices(
-            data["name"],
-            data["vertices"],
-            data["height"],
-            data.get("slab_thickness", DEFAULT_SLAB_THICKNESS),
-        ),
-    )
-
-
 def _cm(metres: float) -> str:
     """A length for messages: centimetres with 3 significant digits."""
     return f"{metres * 100:.3g} cm"
-
-
-def _outline_size(poly: shapely.Polygon) -> float:
-    """Largest distance between two points of a polygon (its convex hull's diameter, m)."""
-    minx, miny, maxx, maxy = poly.bounds
-    box = max(maxx - minx, maxy - miny)
-    if not math.isfinite(box) or box > 10 * MAX_SIZE:
-        return box  # far too large anyway; avoid squaring huge numbers
-    hull = np.asarray(poly.convex_hull.exterior.coords)[:-1]
-    best = 0.0
-    for start in range(0, len(hull), 256):
-        d = hull[start : start + 256, None, :] - hull[None, :, :]
-        best = max(best, float(np.sqrt((d**2).sum(axis=2)).max()))
-    return best

@@ -29,10 +29,10 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 
-from agents.params import ExpertParams, relaxed_slide_params
+from agents.params import ExpertParams, plate_slide_params, relaxed_slide_params
 from agents.record import ExpertReport
 from agents.scene import SceneLibrary
-from agents.tracking import ContactTracker, cartesian_line
+from agents.tracking import ContactTracker, cartesian_line, rise
 from agents.trajectory import Segment, time_segment
 from slide_gym.geometry import (
     ObjectShape,
@@ -53,7 +53,7 @@ from slide_gym.planning.api import (
 )
 from slide_gym.planning.result import PlanStatus
 from slide_gym.robot.kinematics import FastChain, fingertip_chain, grasp_chain
-from slide_gym.robot.model import ARM_LOWER, ARM_UPPER, MIN_CONTACT_SIZE
+from slide_gym.robot.model import ARM_LOWER, ARM_UPPER
 
 APPROACH_RAISES = (0.15, 0.25, 0.35)
 """m above the pre-press pose: the approach goes via a pose raised by the first of these whose
@@ -173,25 +173,10 @@ class SlideGraspExpert:
 
     def _slide_params(self) -> list[tuple[str, SlideParams]]:
         """The planner settings to try in turn: the margins this plate leaves room for, then
-        relaxed ones.
-
-        A plate's overhang plus its centroid's depth inside the edge cannot exceed its
-        circumradius. Both start from their least useful values (a grasp's
-        ``grasp_u_star`` + 2 mm, ``min_centroid_margin``) and share what room is left, up to
-        the full margins of ``slide_params``: large plates get those, small ones less.
-        """
+        relaxed ones."""
         assert self.obj is not None
-        sp, p = self.slide_params, self.params
-        room = self.obj.circumradius - 0.003
-        u_least, m_least = p.grasp_u_star + 0.002, p.min_centroid_margin
-        extra = room - u_least - m_least
-        if extra <= 0.0:
-            u_plan, margin = max(MIN_CONTACT_SIZE, room - m_least), m_least
-        else:
-            u_plan = min(sp.u_star, u_least + 0.5 * extra)
-            margin = min(sp.centroid_margin, room - u_plan)
-        strict = dataclasses.replace(sp, u_star=u_plan, centroid_margin=margin)
-        self.centroid_margin = margin
+        strict = plate_slide_params(self.slide_params, self.params, self.obj.circumradius)
+        self.centroid_margin = strict.centroid_margin
         return [("strict", strict), ("relaxed", relaxed_slide_params(strict))]
 
     def _budget_left(self) -> float:
@@ -245,30 +230,10 @@ class SlideGraspExpert:
     def _ik(self, chain: FastChain, t: np.ndarray, seed: np.ndarray) -> np.ndarray | None:
         return solve_ik(chain, IKTarget(t[:3, 3], t[:3, :3]), self.rng, seed[None])
 
-    def _cartesian(self, chain: FastChain, q0: np.ndarray, offset: np.ndarray):
-        return cartesian_line(chain, q0, offset, self.rng)
-
-    def _rise(
-        self, chain: FastChain, q0: np.ndarray, heights: tuple[float, ...], any_branch: bool
-    ) -> np.ndarray | None:
-        """Waypoints raising ``chain``'s frame straight up by the first of ``heights`` that stays
-        on one IK branch; with ``any_branch``, else a joint-space move to any IK solution at the
-        first height (near a joint limit)."""
-        for height in heights:
-            line = self._cartesian(chain, q0, np.array([0.0, 0.0, height]))
-            if line is not None:
-                return line
-        if not any_branch:
-            return None
-        up = chain.forward(q0)
-        up[2, 3] += heights[0]
-        q_up = self._ik(chain, up, q0)
-        return None if q_up is None else np.array([q0, q_up])
-
     def _queue_press_and_slide(self, q_s: np.ndarray, path: np.ndarray, pose: np.ndarray) -> None:
         p, planner = self.params, self.planner
         assert planner is not None and self.q_cmd is not None
-        down = self._rise(self.tip, q_s, (p.pre_contact_height,), any_branch=True)
+        down = rise(self.tip, q_s, (p.pre_contact_height,), True, self.rng)
         if down is None:
             return self._fail("no IK solution above the press point")
         down = down[::-1]  # from above the press point straight down to it
@@ -346,7 +311,7 @@ class SlideGraspExpert:
         inward = (pose[:2] - edge_point) * (1.0 if inside else -1.0)
         inward /= max(float(np.linalg.norm(inward)), 1e-9)
         shift = np.r_[inward * (keep - depth + 0.005), 0.0]
-        line = self._cartesian(self.tip, self.q_slide_end, shift)
+        line = cartesian_line(self.tip, self.q_slide_end, shift, self.rng)
         assert self.planner is not None
         if line is None or not self.planner.route_free(line, None, mode="sliding"):
             return self._lift_off()
@@ -359,7 +324,7 @@ class SlideGraspExpert:
         assert self.q_cmd is not None
         q_end = self.q_slide_end  # the nominal (uncorrected) end of the slide
         h = self.params.lift_off_height  # near a joint limit, half of it still unloads the finger
-        line = self._rise(self.tip, q_end, (h, h / 2), any_branch=False)
+        line = rise(self.tip, q_end, (h, h / 2), False, self.rng)
         if line is None:
             return self._fail("no IK solution to lift the fingertip off the plate")
         assert self.planner is not None
@@ -409,7 +374,7 @@ class SlideGraspExpert:
         assert self.q_cmd is not None
         q_grasp = transfer[-1]
         heights = (p.lift, 0.75 * p.lift, 0.5 * p.lift)  # lower near the edge of the workspace
-        lift_path = self._rise(self.hand, q_grasp, heights, any_branch=True)
+        lift_path = rise(self.hand, q_grasp, heights, True, self.rng)
         if lift_path is None:
             return self._fail("no IK solution for lifting the grasped object")
         assert self.planner is not None

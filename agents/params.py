@@ -102,6 +102,25 @@ class ExpertParams:
                 raise ValueError(f"ExpertParams.{name} must be a finite positive number: {value}")
 
 
+def plate_slide_params(sp: SlideParams, p: ExpertParams, circumradius: float) -> SlideParams:
+    """``sp`` with the margins a plate of ``circumradius`` (m) leaves room for.
+
+    A plate's overhang plus its centroid's depth inside the edge cannot exceed its
+    circumradius. Both start from their least useful values (``p.grasp_u_star`` + 2 mm,
+    ``p.min_centroid_margin``) and share the room left, up to ``sp``'s full margins: large
+    plates get those, small ones less.
+    """
+    room = circumradius - 0.003
+    u_least, m_least = p.grasp_u_star + 0.002, p.min_centroid_margin
+    extra = room - u_least - m_least
+    if extra <= 0.0:
+        u_plan, margin = max(MIN_CONTACT_SIZE, room - m_least), m_least
+    else:
+        u_plan = min(sp.u_star, u_least + 0.5 * extra)
+        margin = min(sp.centroid_margin, room - u_plan)
+    return dataclasses.replace(sp, u_star=u_plan, centroid_margin=margin)
+
+
 def relaxed_slide_params(params: SlideParams) -> SlideParams:
     """Settings for when no plan with the full margins comes within its iteration cap: any
     plate turn up to 1.6 rad, press points up to 3 cm from the centroid, a planned overhang

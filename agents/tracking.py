@@ -38,6 +38,28 @@ def cartesian_line(
     return np.array(path)
 
 
+def rise(
+    chain: FastChain,
+    q0: np.ndarray,
+    heights: tuple[float, ...],
+    any_branch: bool,
+    rng: np.random.Generator,
+) -> np.ndarray | None:
+    """Waypoints raising ``chain``'s frame straight up by the first of ``heights`` that stays
+    on one IK branch; with ``any_branch``, else a joint-space move to any IK solution at the
+    first height (near a joint limit)."""
+    for height in heights:
+        line = cartesian_line(chain, q0, np.array([0.0, 0.0, height]), rng)
+        if line is not None:
+            return line
+    if not any_branch:
+        return None
+    up = chain.forward(q0)
+    up[2, 3] += heights[0]
+    q_up = solve_ik(chain, IKTarget(up[:3, 3], up[:3, :3]), rng, np.asarray(q0)[None])
+    return None if q_up is None else np.array([q0, q_up])
+
+
 class ContactTracker:
     """Two integral loops that keep a pressed fingertip where the plan wants it (xy only).
 

@@ -10,6 +10,7 @@ collision-free in ``"sliding"`` mode. A failed draw returns None; the search jus
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 import shapely
@@ -17,6 +18,7 @@ import shapely
 from slide_gym.planning.collision import CollisionChecker
 from slide_gym.planning.constraints import SlideConstraints, contact_rotation
 from slide_gym.planning.ik import IKParams, IKTarget, solve_ik
+from slide_gym.planning.result import PlannerStats
 from slide_gym.robot.kinematics import SHOULDER, WRIST_REACH, WRIST_TO_GRASP
 from slide_gym.robot.model import ARM_LOWER, ARM_UPPER, READY_ARM_Q
 
@@ -161,3 +163,24 @@ class GoalRegion(ContactRegion):
             r1, r2 = 1.0 - r1, 1.0 - r2
         a, b, c = self.triangles[k]
         return a + r1 * (b - a) + r2 * (c - a)
+
+
+def draw_root(
+    region: StartRegion | GoalRegion,
+    rng: np.random.Generator,
+    max_draws: int,
+    deadline: float,
+    stats: PlannerStats,
+) -> np.ndarray | str:
+    """A root configuration from ``region``, or why none came: ``"timeout"`` (``deadline``
+    passed) or ``"exhausted"`` (``max_draws`` draws all failed). Sampling time goes to
+    ``stats``."""
+    for _ in range(max_draws):
+        if time.perf_counter() >= deadline:
+            return "timeout"
+        t0 = time.perf_counter()
+        q = region.sample(rng)
+        stats.time_sampling_s += time.perf_counter() - t0
+        if q is not None:
+            return q
+    return "exhausted"

@@ -26,7 +26,7 @@ from slide_gym.planning.collision import CollisionChecker
 from slide_gym.planning.constraints import ContactBand, SlideConstraints
 from slide_gym.planning.pair import PairValidator
 from slide_gym.planning.problem import TopSlideProblem
-from slide_gym.planning.regions import GoalRegion, StartRegion
+from slide_gym.planning.regions import GoalRegion, StartRegion, draw_root
 from slide_gym.planning.result import (
     OutOfTime,
     Planner,
@@ -238,16 +238,7 @@ class TopSlidePlanner(Planner):
 
     # ---------------------------------------------------------------- solve
     def _draw(self, region: Any, deadline: float, stats: PlannerStats) -> np.ndarray | str:
-        """A root from ``region`` or why none came: "timeout" or "exhausted"."""
-        for _ in range(self.max_root_draws):
-            if time.perf_counter() >= deadline:
-                return "timeout"
-            t0 = time.perf_counter()
-            q = region.sample(self.rng)
-            stats.time_sampling_s += time.perf_counter() - t0
-            if q is not None:
-                return q
-        return "exhausted"
+        return draw_root(region, self.rng, self.max_root_draws, deadline, stats)
 
     def _initial_roots(self, deadline: float, stats: PlannerStats) -> tuple[list, list, str | None]:
         """Roots drawn before the search (Init of Algorithm 1, or the baselines' fixed roots)."""

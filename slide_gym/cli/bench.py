@@ -43,17 +43,11 @@ def _cmd_bench_plan(args: argparse.Namespace) -> int:
 def _cmd_bench_execute(args: argparse.Namespace) -> int:
     from slide_gym.bench.execute import bench_execute, execute_markdown_table
 
+    options = ("trials", "out", "planner", "time_budget", "workers", "seed", "scale", "thickness")
     summary = bench_execute(
         objects=parse_names(args.objects),
         tables=parse_names(args.tables),
-        trials=args.trials,
-        out=args.out,
-        planner=args.planner,
-        time_budget=args.time_budget,
-        workers=args.workers,
-        seed=args.seed,
-        scale=args.scale,
-        thickness=args.thickness,
+        **{name: getattr(args, name) for name in options},
     )
     print(execute_markdown_table(summary) if args.markdown else json.dumps(summary, indent=2))
     return 0

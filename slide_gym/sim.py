@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import dataclasses
 import hashlib
 import os
 import sys
@@ -57,19 +58,59 @@ MAX_IMAGE_SIDE = 4096
 
 @dataclass(frozen=True)
 class PhysicsParams:
-    """Physics engine settings (SI units)."""
+    """Physics engine settings (SI units).
+
+    Thin plates (0.5-10 mm) are pressed, dragged and pinched between the multibody finger
+    and the static table. What makes that sound (``slide-gym bench env --drag`` measures it;
+    README, "Performance"):
+
+    - the table and object prisms carry polyhedral features (PyBullet's
+      ``URDF_INITIALIZE_SAT_FEATURES``), so every step Bullet clips face against face and
+      gets the whole contact patch (up to 4 points). Without them it adds one GJK point per
+      step to a persistent manifold, a pressed plate rests on 1-3 points, the finger tilts it
+      about them and squeezes it 4-17 mm into the table, and drags shoot it ahead;
+    - ``prism_margin``: PyBullet adds its 1 mm default margin *outside* a convex hull, so a
+      0.76 mm card was 2.76 mm thick to the fingertip and the table top 1 mm high;
+    - ``solver_iterations`` (100) at ``timestep`` while the robot is within
+      ``near_distance`` of the object: fewer iterations let the pressed fingertip creep over
+      the plate (50: median lag 1.4 cm on a card, 30: cards lost).
+
+    Farther from the object ("free": the arm moving, the fingers touching each other or the
+    table) the world steps ``free_step_factor`` times longer with ``free_solver_iterations``
+    and pyramid friction (:meth:`Simulation.adapt`). The control period is unchanged, the
+    robot's spring law reads the step length in force (:attr:`Simulation.physics`), the
+    environment scales the arm motors' per-step position gain by the step span (free-space
+    arm motion stays within 0.3 mrad of the base rate's), and no contact with the object can
+    begin within one control step from ``near_distance`` away. ``free_step_factor=1``,
+    ``free_solver_iterations=solver_iterations`` and ``free_cone_friction=True`` turn it off.
+    """
 
     timestep: float = 1.0 / 240.0
-    # At PyBullet's default 50 iterations the friction solve does not converge: the pressed
-    # fingertip creeps over the plate while dragging it, and expert slides lose the plate.
     solver_iterations: int = 100
     gravity: float = -9.81
+    prism_margin: float = 1e-4
+    """Collision margin (m) of the table and object prisms (PyBullet's default is 1 mm)."""
+    near_distance: float = 0.1
+    """Robot-object distance (m) within which ``timestep`` and ``solver_iterations`` apply."""
+    free_step_factor: int = 2
+    """How many times longer the physics steps are while the robot is free (whole number)."""
+    free_solver_iterations: int = 10
+    """Solver iterations while the robot is free."""
+    free_cone_friction: bool = False
+    """PyBullet's implicit friction cone while the robot is free (False: the cheaper pyramid,
+    two independent directions); near the object the cone is always on."""
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.timestep) and 0 < self.timestep <= 0.01):
             raise ValueError(f"physics timestep must be in (0, 0.01] s, got {self.timestep}")
-        if self.solver_iterations < 1:
-            raise ValueError(f"solver_iterations must be >= 1, got {self.solver_iterations}")
+        for name in ("solver_iterations", "free_solver_iterations", "free_step_factor"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+                raise ValueError(f"{name} must be a whole number >= 1, got {value!r}")
+        for name in ("near_distance", "prism_margin"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and 0 <= value <= 0.5):
+                raise ValueError(f"{name} must be in [0, 0.5] m, got {value}")
 
 
 class Simulation:
@@ -78,12 +119,14 @@ class Simulation:
     Args:
         render_mode: ``None`` or ``"rgb_array"`` (headless, DIRECT) or ``"human"`` (GUI; a
             ValueError on a machine without a display, see :func:`check_render_mode`).
-        physics: engine settings.
+        physics: engine settings (:attr:`settings`); :attr:`physics` is what is in force
+            (its ``timestep`` grows while the robot is free, see :meth:`adapt`).
     """
 
     def __init__(self, render_mode: str | None = None, physics: PhysicsParams | None = None):
         check_render_mode(render_mode)
-        self.physics = physics or PhysicsParams()
+        self.settings = physics or PhysicsParams()
+        self.physics = self.settings
         self.render_mode = render_mode
         mode = pb.GUI if render_mode == "human" else pb.DIRECT
         with silenced_stdout():
@@ -98,14 +141,50 @@ class Simulation:
     def clear(self) -> None:
         """Remove every body and restore the engine settings (a fresh world)."""
         c = self.client
+        p = self.physics = self.settings
         c.resetSimulation()
-        c.setGravity(0.0, 0.0, self.physics.gravity)
+        c.setGravity(0.0, 0.0, p.gravity)
         c.setPhysicsEngineParameter(
-            fixedTimeStep=self.physics.timestep,
-            numSolverIterations=self.physics.solver_iterations,
+            fixedTimeStep=p.timestep,
+            numSolverIterations=p.solver_iterations,
             deterministicOverlappingPairs=1,
         )
+        self._mode: tuple[bool, int] | None = None  # (free, span) in force
         self.bodies.clear()
+
+    def adapt(self, substeps: int, robot: str = "robot", obj: str = "object") -> int:
+        """Settings for the next control period of ``substeps`` base physics steps; return
+        how many base steps each physics step spans in it.
+
+        Near (``robot`` within ``near_distance`` of ``obj``, or either body missing): the
+        base ``timestep``, ``solver_iterations`` and PyBullet's friction cone; returns 1.
+        Free: ``free_solver_iterations`` and ``free_cone_friction``, and steps
+        ``free_step_factor`` times longer if that divides ``substeps`` and stays within
+        10 ms (else 1); :attr:`physics` carries the timestep in force.
+        """
+        s = self.settings
+        factor = s.free_step_factor
+        free = (
+            (factor > 1 or s.free_solver_iterations != s.solver_iterations)
+            or not s.free_cone_friction
+        ) and (
+            robot in self.bodies
+            and obj in self.bodies
+            and not self.client.getClosestPoints(
+                self.bodies[robot], self.bodies[obj], s.near_distance
+            )
+        )
+        span = factor if free and substeps % factor == 0 and s.timestep * factor <= 0.01 else 1
+        if (free, span) != self._mode:
+            self.physics = s if span == 1 else dataclasses.replace(s, timestep=s.timestep * span)
+            iterations = s.free_solver_iterations if free else s.solver_iterations
+            self.client.setPhysicsEngineParameter(
+                fixedTimeStep=self.physics.timestep,
+                numSolverIterations=iterations,
+                enableConeFriction=int(s.free_cone_friction or not free),
+            )
+            self._mode = (free, span)
+        return span
 
     def step(self) -> None:
         self._step()
@@ -158,12 +237,15 @@ class Simulation:
         file per piece) and ``createVisualShape`` into one coloured mesh. The array calls
         are not used because PyBullet 3.2.7 keeps only their first 16 shapes (its
         ``MAX_COMPOUND_COLLISION_SHAPES``) without a word, and ``createVisualShapeArray``
-        with ``rgbaColors`` for more than 16 shapes ends the process (segfault).
+        with ``rgbaColors`` for more than 16 shapes ends the process (segfault). The
+        collision shape carries polyhedral features and ``PhysicsParams.prism_margin``.
         """
         c = self.client
         path = str(_prisms_obj_file(_check_pieces(pieces, name), z_bottom, z_top))
         with silenced_stdout():  # PyBullet's mesh loader prints a banner
-            col = c.createCollisionShape(pb.GEOM_MESH, fileName=path)
+            col = c.createCollisionShape(
+                pb.GEOM_MESH, fileName=path, flags=pb.URDF_INITIALIZE_SAT_FEATURES
+            )
             vis = c.createVisualShape(pb.GEOM_MESH, fileName=path, rgbaColor=list(rgba))
         body = c.createMultiBody(
             baseMass=mass,
@@ -178,6 +260,7 @@ class Simulation:
             lateralFriction=lateral_friction,
             spinningFriction=spinning_friction,
             rollingFriction=0.0,
+            collisionMargin=self.physics.prism_margin,
         )
         self.bodies[name] = body
         return body

@@ -1,9 +1,11 @@
 """``slide-gym bench env``: environment throughput, real-time factor, overhead over raw
-physics stepping, and reset time."""
+physics stepping, and reset time; optionally against panda-gym on random actions, and the
+press-and-drag check of :mod:`slide_gym.bench.drag` (the speed must not bring the creep back)."""
 
 from __future__ import annotations
 
 import json
+import math
 import os
 import platform
 import time
@@ -18,6 +20,10 @@ RESETS = 20
 """Timed resets."""
 REPEATS = 3
 """Alternating runs of the env and the raw loop; the best of each counts."""
+RANDOM_STEPS = 2000
+"""Env steps on random actions per run (``SlideGym/TopSlide-v0``, resets included)."""
+AGAINST = {"panda-gym": "PandaPush-v3"}
+"""Other environments ``--against`` runs on the same random-action protocol."""
 
 
 def bench_env(
@@ -27,14 +33,25 @@ def bench_env(
     resets: int = RESETS,
     seed: int = 0,
     repeats: int = REPEATS,
+    random_steps: int = RANDOM_STEPS,
+    against: str | None = None,
+    drag: bool = False,
 ) -> dict[str, Any]:
     """Env throughput, real-time factor, overhead over raw physics stepping, and reset time.
 
     The actions are the scripted slider's (:class:`agents.scripted.ScriptedSlider`, recorded
     once, untimed), so the finger is in contact. The raw loop steps the very same world (robot
     springs applied every physics step, arm targets held) without building observations,
-    rewards or infos.
+    rewards or infos. Then ``random_steps`` random actions through ``gym.make``
+    (``SlideGym/TopSlide-v0``, its time limit, resets included), and with ``against``
+    (a key of :data:`AGAINST`) the other environment on the same protocol, runs alternating,
+    best of ``repeats`` each; ``rtf_ratio`` is ours over theirs. ``drag`` adds
+    :func:`slide_gym.bench.drag.drag_summary` (sinking and creep of pressed, dragged plates).
     """
+    if random_steps < 1:
+        raise ValueError(f"random_steps must be >= 1, got {random_steps}")
+    if against is not None:
+        _load_against(against)  # fail before the long runs
     from agents.scripted import ScriptedSlider  # agents builds on slide_gym: import on use
     from slide_gym.envs.top_slide import TopSlideEnv
     from slide_gym.robot import ARM_LOWER, ARM_UPPER
@@ -72,9 +89,9 @@ def bench_env(
             target = np.array(env._arm_target)  # noqa: SLF001 - the env's start target
             for a in actions:
                 target = np.clip(target + max_step * a[:7], ARM_LOWER, ARM_UPPER)
-                robot.set_arm_targets(target)
+                span = env._command_arm(target)  # noqa: SLF001 - the env's own settings
                 robot.set_hand_command((a[7] + 1.0) / 2.0)
-                for _ in range(n_sub):
+                for _ in range(n_sub // span):
                     robot.step_physics()
             return time.perf_counter() - t0
 
@@ -87,12 +104,12 @@ def bench_env(
         env.close()
 
     sim_time = steps * env.dt
-    return {
+    result = {
         "benchmark": "env_step",
         "object": object_name,
         "table": table_name,
         "control_hz": 1.0 / env.dt,
-        "physics_hz": 1.0 / env.sim.physics.timestep,
+        "physics_hz": 1.0 / env.sim.settings.timestep,
         "steps": steps,
         "repeats": repeats,
         "env_steps_per_s": steps / env_wall,
@@ -104,6 +121,88 @@ def bench_env(
         "machine": f"{platform.processor() or platform.machine()}, "
         f"OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS', 'unset')}",
     }
+    result.update(_random_actions(object_name, table_name, random_steps, seed, repeats, against))
+    if drag:
+        from slide_gym.bench.drag import drag_summary
+
+        result["drag"] = drag_summary()
+    return result
+
+
+def _load_against(against: str) -> str:
+    """Import the other environment's package (it registers its ids); return the env id."""
+    if against not in AGAINST:
+        raise ValueError(f"--against must be one of {', '.join(AGAINST)}, got {against!r}")
+    from slide_gym.sim import silenced_stdout
+
+    try:
+        with silenced_stdout():
+            import panda_gym  # noqa: F401 - registers the Panda environments
+    except ImportError:
+        raise ValueError(
+            f"--against {against} needs panda-gym: pip install 'slide-gym[compare]'"
+        ) from None
+    return AGAINST[against]
+
+
+def _random_actions(
+    object_name: str, table_name: str, steps: int, seed: int, repeats: int, against: str | None
+) -> dict[str, Any]:
+    """Real-time factor on random actions: ours, and the other env's if ``against``; runs
+    alternate, the best of ``repeats`` each counts."""
+    import gymnasium as gym
+
+    from slide_gym.sim import silenced_stdout
+
+    envs: dict[str, Any] = {}
+    try:
+        with silenced_stdout():  # PyBullet and panda-gym print banners on stdout
+            envs["random"] = gym.make("SlideGym/TopSlide-v0", object=object_name, table=table_name)
+            if against is not None:
+                envs["against"] = gym.make(_load_against(against))
+        wall = dict.fromkeys(envs, math.inf)
+        for _ in range(repeats):
+            for key, env in envs.items():
+                wall[key] = min(wall[key], _time_random_run(env, steps, seed))
+        out: dict[str, Any] = {"random_steps": steps}
+        for key, env in envs.items():
+            u = env.unwrapped
+            dt = float(u.dt if key == "random" else u.sim.dt)
+            out[key] = {
+                "env_id": env.spec.id,
+                "control_dt": dt,
+                "env_steps_per_s": steps / wall[key],
+                "real_time_factor": steps * dt / wall[key],
+            }
+        if against is not None:
+            sim = envs["against"].unwrapped.sim
+            engine = sim.physics_client.getPhysicsEngineParameters()
+            out["against"].update(
+                name=against,
+                physics_hz=1.0 / sim.timestep,
+                solver_iterations=engine["numSolverIterations"],
+            )
+            ratio = out["random"]["real_time_factor"] / out["against"]["real_time_factor"]
+            out["rtf_ratio"] = ratio
+    finally:
+        for env in envs.values():
+            env.close()
+    return out
+
+
+def _time_random_run(env: Any, steps: int, seed: int) -> float:
+    """Wall time of ``steps`` seeded random actions (resets on termination or truncation)."""
+    env.action_space.seed(seed)
+    actions = [env.action_space.sample() for _ in range(steps)]
+    episode = 0
+    env.reset(seed=seed)
+    t0 = time.perf_counter()
+    for action in actions:
+        _, _, terminated, truncated, _ = env.step(action)
+        if terminated or truncated:
+            episode += 1
+            env.reset(seed=seed + episode)
+    return time.perf_counter() - t0
 
 
 def write_result(result: dict[str, Any], out: Path | None) -> None:

@@ -15,7 +15,14 @@ def _cmd_bench_env(args: argparse.Namespace) -> int:
     from slide_gym.bench.env import bench_env, write_result
 
     result = bench_env(
-        args.object, args.table, steps=args.steps, resets=args.resets, seed=args.seed
+        args.object,
+        args.table,
+        steps=args.steps,
+        resets=args.resets,
+        seed=args.seed,
+        random_steps=args.random_steps,
+        against=args.against,
+        drag=args.drag,
     )
     write_result(result, args.out)
     return 0
@@ -107,13 +114,32 @@ def _add_env(what: Any) -> None:
         "env",
         "environment throughput, real-time factor, overhead and reset time",
         "Step SlideGym/TopSlide-v0 with the scripted slider's actions (recorded once, "
-        "replayed), then the same world without observations or rewards; time resets.",
+        "replayed), then the same world without observations or rewards; time resets; then "
+        "random actions (optionally against another environment on the same protocol).",
     )
     p.add_argument("--object", default="square", metavar="NAME", help="catalog name or JSON file")
     p.add_argument("--table", default="square", metavar="NAME", help="catalog name or JSON file")
     p.add_argument("--steps", type=int, default=env.STEPS, metavar="N", help="timed env steps")
     p.add_argument("--resets", type=int, default=env.RESETS, metavar="N", help="timed resets")
     p.add_argument("--seed", type=int, default=0, help="reset seed")
+    p.add_argument(
+        "--random-steps",
+        type=int,
+        default=env.RANDOM_STEPS,
+        metavar="N",
+        help="timed env steps on random actions (resets included)",
+    )
+    p.add_argument(
+        "--against",
+        choices=sorted(env.AGAINST),
+        help="also run this environment on the same random actions and print the ratio of "
+        "real-time factors (needs: pip install 'slide-gym[compare]')",
+    )
+    p.add_argument(
+        "--drag",
+        action="store_true",
+        help="also press and drag plates of 0.5-10 mm by 20 cm (sinking, lag, ejections)",
+    )
     p.add_argument(
         "--out", type=Path, metavar="FILE", help="also append the result as one JSON line here"
     )

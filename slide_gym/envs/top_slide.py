@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import gymnasium as gym
@@ -193,7 +194,7 @@ class TopSlideEnv(gym.Env):
     @property
     def dt(self) -> float:
         """Seconds of simulated time per :meth:`step` (physics timestep x substeps)."""
-        return self.n_substeps * self.sim.physics.timestep
+        return self.n_substeps * self.sim.settings.timestep
 
     # ------------------------------------------------------------------ set-up
     @staticmethod
@@ -322,9 +323,9 @@ class TopSlideEnv(gym.Env):
             self._arm_target + self.max_joint_step * a[:7], ARM_LOWER, ARM_UPPER
         )
         self._u = float((a[7] + 1.0) / 2.0)
-        self.robot.set_arm_targets(self._arm_target)
+        span = self._command_arm(self._arm_target)
         self.robot.set_hand_command(self._u)
-        for _ in range(self.n_substeps):
+        for _ in range(self.n_substeps // span):
             self.robot.step_physics()
         s = self._state = self._read_state()
         self._lift_steps = self._lift_steps + 1 if self.task.lifted(s) else 0
@@ -332,6 +333,27 @@ class TopSlideEnv(gym.Env):
         reward = self._reward(s, success)
         terminated = success or s.fell_off
         return self._observation(), reward, terminated, False, self._info(s)
+
+    def _command_arm(self, target: np.ndarray) -> int:
+        """Pick this control period's physics settings (:meth:`Simulation.adapt`: full ones
+        near the object, ``free_step_factor`` times longer steps while the robot is free),
+        then send the arm targets; return how many base physics steps each step spans.
+
+        The settings come first: PyBullet caps a motor's impulse per step with the step
+        length in force when the command arrives. A motor's position gain is a fraction of
+        the error closed per step, so it is scaled by the step span: the arm tracks its
+        targets as it does at the base rate (within 0.3 mrad; unscaled it lags 2.6 mrad).
+        """
+        span = self.sim.adapt(self.n_substeps)
+        gains = self.robot.arm_gains
+        if span != 1:
+            scaled = tuple(span * k for k in gains.position_gains)
+            self.robot.arm_gains = dataclasses.replace(gains, position_gains=scaled)
+        try:
+            self.robot.set_arm_targets(target)
+        finally:
+            self.robot.arm_gains = gains
+        return span
 
     def render(self) -> np.ndarray | None:
         if self.render_mode == "rgb_array":

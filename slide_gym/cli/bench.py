@@ -14,16 +14,8 @@ from slide_gym.planning.search import PLANNERS
 def _cmd_bench_env(args: argparse.Namespace) -> int:
     from slide_gym.bench.env import bench_env, write_result
 
-    result = bench_env(
-        args.object,
-        args.table,
-        steps=args.steps,
-        resets=args.resets,
-        seed=args.seed,
-        random_steps=args.random_steps,
-        against=args.against,
-        drag=args.drag,
-    )
+    options = ("steps", "resets", "seed", "random_steps", "against", "drag")
+    result = bench_env(args.object, args.table, **{name: getattr(args, name) for name in options})
     write_result(result, args.out)
     return 0
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 from typing import Any
 
 import gymnasium as gym
@@ -340,19 +339,11 @@ class TopSlideEnv(gym.Env):
         then send the arm targets; return how many base physics steps each step spans.
 
         The settings come first: PyBullet caps a motor's impulse per step with the step
-        length in force when the command arrives. A motor's position gain is a fraction of
-        the error closed per step, so it is scaled by the step span: the arm tracks its
-        targets as it does at the base rate (within 0.3 mrad; unscaled it lags 2.6 mrad).
+        length in force when the command arrives, and the robot scales its position gains by
+        the step span in force (within 0.3 mrad of the base rate; unscaled 2.6 mrad).
         """
         span = self.sim.adapt(self.n_substeps)
-        gains = self.robot.arm_gains
-        if span != 1:
-            scaled = tuple(span * k for k in gains.position_gains)
-            self.robot.arm_gains = dataclasses.replace(gains, position_gains=scaled)
-        try:
-            self.robot.set_arm_targets(target)
-        finally:
-            self.robot.arm_gains = gains
+        self.robot.set_arm_targets(target)
         return span
 
     def render(self) -> np.ndarray | None:

@@ -208,8 +208,12 @@ class WamT42:
 
         The feedforward is updated first; each motor is then capped so that motor plus
         feedforward stays within the joint's ``ARM_PEAK_TORQUES`` (see :meth:`motor_caps`).
+        A position gain is the fraction of the error closed per physics step, so it is scaled
+        by the step span in force (``sim.physics`` against ``sim.settings``, see
+        :meth:`Simulation.adapt`): the arm tracks its targets as at the base rate.
         """
         g = self.arm_gains
+        span = round(self.sim.physics.timestep / self.sim.settings.timestep)
         if g.gravity_compensation:
             self._update_gravity_feedforward()
         self.sim.client.setJointMotorControlArray(
@@ -219,7 +223,7 @@ class WamT42:
             targetPositions=np.asarray(q, dtype=float).reshape(7).tolist(),
             targetVelocities=[0.0] * 7 if dq is None else np.asarray(dq, float).tolist(),
             forces=self.motor_caps().tolist(),
-            positionGains=list(g.position_gains),
+            positionGains=[span * k for k in g.position_gains],
             velocityGains=list(g.velocity_gains),
         )
 

@@ -98,6 +98,20 @@ def _add_jobs(p: argparse.ArgumentParser, out: Path, first_seed: str) -> None:
     )
 
 
+def _add_trials(
+    p: argparse.ArgumentParser, trials: int, trials_help: str, budget: float, budget_help: str
+) -> None:
+    """``--trials`` and ``--time-budget`` (planning seconds) of a benchmark."""
+    p.add_argument("--trials", type=int, default=trials, metavar="N", help=trials_help)
+    p.add_argument(
+        "--time-budget",
+        type=float,
+        default=budget,
+        metavar="S",
+        help=f"planning seconds {budget_help}",
+    )
+
+
 def _add_env(what: Any) -> None:
     from slide_gym.bench import env
 
@@ -154,16 +168,7 @@ def _add_plan(what: Any) -> None:
     p.add_argument(
         "--planners", default=planners, metavar="NAMES", help=f"comma-separated, from {planners}"
     )
-    p.add_argument(
-        "--trials", type=int, default=plan.TRIALS, metavar="N", help="start poses per object"
-    )
-    p.add_argument(
-        "--time-budget",
-        type=float,
-        default=plan.TIME_BUDGET,
-        metavar="S",
-        help="planning seconds per query",
-    )
+    _add_trials(p, plan.TRIALS, "start poses per object", plan.TIME_BUDGET, "per query")
     p.add_argument("--dz", default=dz, metavar="LO,HI", help="contact depth band (m; dZ* = HI-LO)")
     _add_jobs(p, plan.OUT, "first start-pose seed (trial k uses SEED + k)")
     p.add_argument(
@@ -193,16 +198,8 @@ def _add_execute(what: Any) -> None:
     )
     p.add_argument("--tables", default=tables, metavar="NAMES", help="comma-separated tables")
     p.add_argument("--planner", choices=PLANNERS, default=execute.PLANNER, help="the planner")
-    p.add_argument(
-        "--trials", type=int, default=execute.TRIALS, metavar="N", help="episodes per scene"
-    )
-    p.add_argument(
-        "--time-budget",
-        type=float,
-        default=execute.TIME_BUDGET,
-        metavar="S",
-        help="planning seconds per episode, first plan and replans together",
-    )
+    budget_help = "per episode, first plan and replans together"
+    _add_trials(p, execute.TRIALS, "episodes per scene", execute.TIME_BUDGET, budget_help)
     p.add_argument("--scale", type=float, default=1.0, help="object scale")
     p.add_argument("--thickness", type=float, metavar="M", help="override every plate's (m)")
     _add_jobs(p, execute.OUT, "first episode seed (trial k uses SEED + k)")

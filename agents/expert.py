@@ -251,11 +251,12 @@ class SlideGraspExpert:
                 return self._fail(f"no collision-free approach to the press point: {why}")
         if not planner.route_free(down, None, mode="sliding"):
             return self._fail("the press move down to the plate would collide")
-        self._push(Segment("approach", np.array(route), p.approach_speed), self.tip)
+        approach = Segment("approach", np.array(route), p.approach_speed, ramp_s=p.ramp_s)
+        self._push(approach, self.tip)
         press = Segment("press", down, 1.0, p.press_speed, hold_s=p.press_hold_s)
         self._push(press, self.tip, track=True)
         first = len(self.queue)
-        slide = Segment("slide", path, 1.0, p.slide_speed, hold_s=p.slide_settle_s)
+        slide = Segment("slide", path, 1.0, p.slide_speed, hold_s=p.slide_settle_s, ramp_s=p.ramp_s)
         self._push(slide, self.tip, track=True)
         targets = [step.q for step in list(self.queue)[first:]]
         gammas = planar_pose(self.tip.forward(np.stack([q_s, *targets])))
@@ -330,7 +331,7 @@ class SlideGraspExpert:
         assert self.planner is not None
         if not self.planner.route_free(line, None, mode="sliding"):
             return self._fail("the lift-off move would collide")
-        self._push(Segment("lift_off", line, 1.0, self.params.press_speed), self.tip, track=True)
+        self._push(Segment("lift_off", line, 1.0, self.params.lift_off_speed), self.tip, track=True)
 
     def _after_lift_off(self, obs: dict[str, np.ndarray]) -> None:
         """Compare the real slid pose with Eq. 2; re-aim the grasp at it, or replan."""
@@ -354,6 +355,7 @@ class SlideGraspExpert:
                 self.params.grasp_u_star,
                 max_iterations=self.params.grasp_iterations,
                 time_budget=budget,
+                grasp_seed=self.result.extra.get("grasp_config"),
             )
             self.report.planning_time_s += time.perf_counter() - t0
             if info.get("timeout"):
@@ -382,7 +384,12 @@ class SlideGraspExpert:
             return self._fail("lifting the grasped object would collide")
         route = np.vstack([self.q_cmd, transfer[1:-1]])
         transfer_leg = Segment(
-            "transfer", route, p.transfer_speed, p.transfer_tip_speed, hold_s=p.settle_s
+            "transfer",
+            route,
+            p.transfer_speed,
+            p.transfer_tip_speed,
+            hold_s=p.settle_s,
+            ramp_s=p.ramp_s,
         )
         self._push(transfer_leg, self.hand)
         self._push(Segment("approach_grasp", transfer[-2:], 1.0, p.grasp_speed), self.hand)

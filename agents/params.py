@@ -17,6 +17,7 @@ EXPERT_SLIDE_PARAMS = SlideParams(
     u_star=0.04,
     centroid_margin=0.015,
     max_rotation=0.8,
+    tip_edge_margin=0.01,
     grasp=GraspParams(retreat=0.06),
 )
 """Planner settings the expert uses by default, with margins for the real slide:
@@ -30,6 +31,8 @@ EXPERT_SLIDE_PARAMS = SlideParams(
   1.5 cm inside the edge, for plates large enough (smaller ones get what room they leave:
   :meth:`agents.expert.SlideGraspExpert._slide_params`);
 - at most 0.8 rad of plate rotation: in larger turns the plate slips about the fingertip;
+- the fingertip at least 1 cm inside the table edge: the fingertip creeps ahead of the plate
+  and the tracker shifts it further, and a plate pressed beyond the edge tips over it;
 - the grasp approached from a stand-off 6 cm out, clear of the plate's corners."""
 
 
@@ -66,23 +69,25 @@ class ExpertParams:
     """
 
     approach_speed: float = 1.0  # rad/s, free-space joint speed
+    ramp_s: float = 0.4  # s over which free-space legs and the slide speed up and slow down
     pre_contact_height: float = 0.03  # m above the press point before pressing
     press_speed: float = 0.02  # m/s fingertip speed while pressing
     press_hold_s: float = 0.3
-    slide_speed: float = 0.03  # m/s fingertip speed along the slide
-    transfer_speed: float = 0.6  # rad/s
-    transfer_tip_speed: float = 0.25  # m/s of the grasp frame during the transfer
+    slide_speed: float = 0.05  # m/s fingertip speed along the slide
+    lift_off_speed: float = 0.05  # m/s the fingertip rises off the plate after the slide
+    transfer_speed: float = 1.0  # rad/s
+    transfer_tip_speed: float = 0.4  # m/s of the grasp frame during the transfer
     lift_off_height: float = 0.06  # m the fingertip rises off the plate after the slide
     grasp_iterations: int = 100  # fallback transfer iterations when re-aiming the grasp
-    settle_s: float = 0.5  # s at the stand-off pose: the arm settles before the approach
+    settle_s: float = 0.3  # s at the stand-off pose: the arm settles before the approach
     grasp_speed: float = 0.04  # m/s on the final approach to the grasp
     close_s: float = 0.8  # hand closing time before lifting
     lift: float = 0.12  # m the grasp frame rises
-    lift_speed: float = 0.05  # m/s
+    lift_speed: float = 0.08  # m/s
     tip_gain: float = 0.3  # per control step, integral gain of the fingertip loop
     object_gain: float = 0.02  # per control step, integral gain of the plate-pose loop
     max_object_correction: float = 0.03  # m
-    slide_settle_s: float = 0.5  # s at the slide's end: the plate comes to rest, still pressed
+    slide_settle_s: float = 0.3  # s at the slide's end: the plate comes to rest, still pressed
     contact_deflection: float = 0.05  # rad of finger A's proximal joint: it is pressing
     max_correction: float = 0.04  # m, largest Cartesian correction of the fingertip
     max_replans: int = 2

@@ -133,3 +133,20 @@ def test_prisms_collide_at_their_real_size() -> None:
         assert abs(gap) < 2.5 * sim.settings.prism_margin
     finally:
         sim.close()
+
+
+@pytest.mark.parametrize("seed", [5, 7])
+def test_random_actions_never_send_the_arm_flying(seed: int) -> None:
+    """With a random hand command the fingers close on nothing; pressed together by the
+    tendon they once made the arm diverge (these seeds: joint speeds past 20 rad/s)."""
+    env = TopSlideEnv(object="square", table="square")
+    env.reset(seed=seed)
+    rng = np.random.default_rng(seed)
+    fastest = 0.0
+    for _ in range(300):
+        obs, _, terminated, truncated, _ = env.step(rng.uniform(-1, 1, 8).astype(np.float32))
+        fastest = max(fastest, float(np.abs(obs["arm_qvel"]).max()))
+        if terminated or truncated:
+            break
+    env.close()
+    assert fastest < 8.0

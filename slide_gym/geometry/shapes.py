@@ -51,6 +51,8 @@ MAX_SIZE = 0.5  # m: about the width of the arm's reach band on the tables (0.30
 MAX_COORDINATE = 1000.0
 """Largest |x| or |y| (m) accepted in a vertex list: anything beyond is a unit mistake (and
 1e200 would overflow the area computations)."""
+
+
 def _check_range(value: float, lo: float, hi: float, what: str, span: str) -> float:
     """``value`` as a float if it is a number within [lo, hi] (metres), else a ValueError
     that also spots millimetres given for metres."""

@@ -118,6 +118,8 @@ def _edges_near(table: shapely.Polygon, part: shapely.Geometry, gap: float = 1e-
 
 
 _SEED_ONLY = IKParams(n_restarts=1)
+GRASP_IK_ROUNDS = 3
+"""IK rounds per grasp candidate: a round's first converged solution may collide."""
 
 
 class PairValidator:
@@ -187,6 +189,7 @@ class PairValidator:
         lifted: bool = False,
         centroid_margin: float | None = None,
         transfer_iterations: int | None = None,
+        grasp_seeds: np.ndarray | None = None,
     ) -> tuple[bool, dict[str, Any]]:
         """Is the plate graspable at ``goal`` (x, y, yaw), and reachable from ``q_g``?
 
@@ -194,7 +197,8 @@ class PairValidator:
         pose after a real slide, to re-aim the grasp (``u_star`` overrides the validator's;
         ``lifted`` says the fingertip is already off the plate at ``q_g``, so no lift leg;
         ``centroid_margin`` overrides how far inside the table edge the centroid must lie;
-        ``transfer_iterations`` the fallback planner's iteration cap).
+        ``transfer_iterations`` the fallback planner's iteration cap; ``grasp_seeds`` (k, 7)
+        extra IK seeds for the grasp, e.g. the grasp planned for a nearby pose).
 
         Every step is bounded by a count (two grasp candidates, IK iterations, straight legs,
         the fallback's iterations). If :attr:`deadline` passes during the check, the answer is
@@ -237,9 +241,10 @@ class PairValidator:
         reason, counter = "no collision-free IK solution for the grasp", "grasp_ik"
         found: dict[str, Any] | None = None
         try:
+            seeds = np.vstack([q_g[None], *([] if grasp_seeds is None else [grasp_seeds])])
             for pos, rot in poses:
-                q_grasp = self._ik(pos, rot, q_g)
-                if q_grasp is None or self.checker.collides(q_grasp, "full"):
+                q_grasp = self._grasp_ik(pos, rot, seeds)
+                if q_grasp is None:
                     continue
                 if not self._liftable(q_grasp, pos, rot):
                     reason, counter = "the grasp configuration cannot lift the plate", "grasp_ik"
@@ -265,9 +270,20 @@ class PairValidator:
 
     # -------------------------------------------------------------- helpers
     def _ik(self, pos: np.ndarray, rot: np.ndarray, seed: np.ndarray, chain=None):
+        """IK for the hand (or ``chain``) from ``seed`` (7,) or seeds (k, 7)."""
         chain = chain or self.hand
         target = IKTarget(pos, rot)
-        return solve_ik(chain, target, self.rng, seed[None], self.ik_params, self.deadline)
+        return solve_ik(chain, target, self.rng, np.atleast_2d(seed), self.ik_params, self.deadline)
+
+    def _grasp_ik(self, pos: np.ndarray, rot: np.ndarray, seeds: np.ndarray):
+        """A collision-free grasp configuration at (``pos``, ``rot``): IK from ``seeds`` plus
+        random restarts, tried ``GRASP_IK_ROUNDS`` times (fresh restarts each round), since
+        the first converged solution may put the arm through the table."""
+        for round_ in range(GRASP_IK_ROUNDS):
+            q = self._ik(pos, rot, seeds if round_ == 0 else seeds[:1])
+            if q is not None and not self.checker.collides(q, "full"):
+                return q
+        return None
 
     def _liftable(self, q_grasp: np.ndarray, pos: np.ndarray, rot: np.ndarray) -> bool:
         """The hand can rise ``grasp.lift`` straight up from ``q_grasp`` on the same IK branch

@@ -45,6 +45,7 @@ class SlideParams:
     centroid_margin: float = 0.0  # m the placed plate's centroid must lie inside the table edge
     press_edge_margin: float = 0.0  # m, least distance of a press point from the plate's edge
     press_radius: float | None = None  # m: press only near the centroid (None: anywhere, paper)
+    tip_edge_margin: float = 0.0  # m the fingertip contact stays inside the table edge (0: paper)
     shortcut_attempts: int = 40  # constrained shortcuts tried on the found slide (0: none)
     max_iterations: int | None = None  # search iterations before giving up (None: no cap)
     distance_weights: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0, 0.6, 0.6, 0.3)
@@ -58,6 +59,7 @@ class SlideParams:
             _finite(getattr(self, name), name, positive=True)
         _finite(self.centroid_margin, "centroid_margin")
         _finite(self.press_edge_margin, "press_edge_margin")
+        _finite(self.tip_edge_margin, "tip_edge_margin")
         if not (isinstance(self.max_rotation, Real) and self.max_rotation > 0):
             raise ValueError(f"max_rotation must be a positive number, got {self.max_rotation!r}")
         try:

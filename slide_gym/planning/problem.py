@@ -69,6 +69,11 @@ class TopSlideProblem:
             if len(xy) == 0:
                 raise ValueError("no part of the object's top lies over the table to press on")
         self.start_points = np.column_stack([xy, np.full(len(xy), self.z_surface)])
+        margin = self.params.tip_edge_margin
+        self.contact_area = self.table.polygon.buffer(-margin) if margin > 0 else self.table.polygon
+        """Where the fingertip contact may be: the table, ``tip_edge_margin`` in from its edge."""
+        if self.contact_area.is_empty:
+            raise ValueError(f"tip_edge_margin {margin} m leaves no table to press on")
         grasp_z = self.table.height + 0.5 * self.object.thickness
         self.goal_band = goal_band(
             self.table.polygon,
@@ -76,6 +81,8 @@ class TopSlideProblem:
             grasp_z if self.params.goal_band_reachable else None,
             self.params.grasp.edge_clearance,
         )
+        if margin > 0:
+            self.goal_band = self.goal_band.intersection(self.contact_area)
 
     def describe(self) -> dict[str, Any]:
         """Scene summary for results and logs."""

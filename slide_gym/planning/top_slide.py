@@ -84,7 +84,7 @@ class TopSlidePlanner(Planner):
         p = problem.params
         self.chain = fingertip_chain()
         band = ContactBand(p.beta0, p.dbeta, *problem.height_range, problem.z_surface)
-        self.constraints = SlideConstraints(self.chain, band, problem.table.polygon, p.tolerance)
+        self.constraints = SlideConstraints(self.chain, band, problem.contact_area, p.tolerance)
         self.checker = CollisionChecker(problem.table, problem.object)
         args = (self.constraints, self.checker, p.ik)
         self.start_region = StartRegion(problem.start_points, *args)
@@ -152,6 +152,7 @@ class TopSlidePlanner(Planner):
         u_star: float,
         max_iterations: int | None = None,
         time_budget: float = math.inf,
+        grasp_seed: Any = None,
     ) -> tuple[bool, dict[str, Any]]:
         """Re-aim the side grasp at a measured plate pose (x, y, yaw) after a real slide.
 
@@ -161,7 +162,8 @@ class TopSlidePlanner(Planner):
         by counts: two grasp candidates, IK iterations, and at most ``max_iterations``
         iterations of the fallback transfer planner per candidate (None:
         ``GraspParams.transfer_iterations``). ``time_budget`` (seconds, inf: none) is only a
-        give-up: a check it interrupts answers ``info["timeout"] = True``. Returns
+        give-up: a check it interrupts answers ``info["timeout"] = True``. ``grasp_seed`` (7,):
+        an extra IK seed for the grasp, such as the plan's ``extra["grasp_config"]``. Returns
         ``(ok, info)``; ``info["transfer_path"]`` runs from ``q_from`` to the grasp,
         ``info["reason"]`` says why not.
         """
@@ -177,6 +179,7 @@ class TopSlidePlanner(Planner):
                 lifted=True,
                 centroid_margin=0.0,
                 transfer_iterations=max_iterations,
+                grasp_seeds=None if grasp_seed is None else np.atleast_2d(grasp_seed),
             )
         finally:
             self.validator.deadline = saved

@@ -14,6 +14,7 @@ import numpy as np
 from agents.params import ExpertParams
 from agents.planner_agent import PlannerAgent
 from agents.record import EpisodeRecord
+from slide_gym import ENV_IDS
 from slide_gym.geometry import ObjectShape, TableShape, get_table
 from slide_gym.planning.result import check_time_budget
 from slide_gym.task import scene_object
@@ -35,17 +36,21 @@ def run_episode(
     video: Path | None = None,
     thickness: float | None = None,
     params: ExpertParams | None = None,
+    env_id: str = ENV_ID,
     **planner_params: Any,
 ) -> EpisodeRecord:
     """Run the planner agent for one seeded episode; success is the env's ``is_success``.
 
     ``object`` may be ``"procedural"`` (the plate of ``seed``); ``thickness`` (m) overrides the
-    object's.
+    object's. ``env_id``: any registered id (:data:`slide_gym.ENV_IDS`); the slide envs end
+    when the plate is left graspable.
 
     ``params`` (execution) and ``planner_params`` (:class:`~slide_gym.planning.SlideParams`
     overrides) go to :class:`~agents.planner_agent.PlannerAgent`.
     """
     check_time_budget(time_budget)
+    if env_id not in ENV_IDS:
+        raise ValueError(f"env_id must be one of {', '.join(ENV_IDS)}, got {env_id!r}")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
     if video is not None:  # checked up front: the episode takes a minute
@@ -58,7 +63,7 @@ def run_episode(
     table_shape = get_table(table)
     shape = scene_object(object, table_shape, seed=seed, scale=scale, thickness=thickness)
     env = gym.make(
-        ENV_ID, object=shape, table=table_shape, render_mode="rgb_array" if video else None
+        env_id, object=shape, table=table_shape, render_mode="rgb_array" if video else None
     )
     agent = PlannerAgent(
         planner,
@@ -101,6 +106,7 @@ def run_episode(
         scale=float(scale),
         seed=int(seed),
         planner=planner,
+        env_id=env_id,
         success=bool(info["is_success"]),
         expert=report,
         phase_reached=phase,

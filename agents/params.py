@@ -123,7 +123,13 @@ def plate_slide_params(sp: SlideParams, p: ExpertParams, circumradius: float) ->
     else:
         u_plan = min(sp.u_star, u_least + 0.5 * extra)
         margin = min(sp.centroid_margin, room - u_plan)
-    return dataclasses.replace(sp, u_star=u_plan, centroid_margin=margin)
+    # A contact farther in than this cannot push the plate u_plan past the edge (the press
+    # points lie within press_radius of the one nearest the centroid; 1 cm of slack for
+    # shapes whose centroid is off the plate): keep the goal region's band that narrow, or
+    # small plates draw mostly hopeless goals.
+    reach_in = circumradius + (sp.press_radius or circumradius) + 0.01 - u_plan
+    width = min(sp.goal_band_width, max(reach_in, sp.tip_edge_margin + 0.01))
+    return dataclasses.replace(sp, u_star=u_plan, centroid_margin=margin, goal_band_width=width)
 
 
 def relaxed_slide_params(params: SlideParams) -> SlideParams:

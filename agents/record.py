@@ -57,7 +57,9 @@ class EpisodeRecord:
             ``planner``: the planner's name.
         phase_reached: the expert's last phase (``"done"``, ``"lift"``, ``"failed"``, ...),
             ``"rejected"`` if the scene was refused before an episode.
-        success: the env's ``is_success`` at the end (object lifted in the fingers).
+        env_id: the environment the episode ran in.
+        success: the env's ``is_success`` at the end (for the grasp envs: the object lifted
+            in the fingers; for the slide envs: left graspable).
         steps: env steps; ``sim_time_s``: simulated seconds; ``wall_time_s``: real seconds
             (``None`` if no episode ran).
         object_start_pose, object_final_pose: ``[x, y, yaw]`` at reset and at the end.
@@ -73,6 +75,7 @@ class EpisodeRecord:
     scale: float = 1.0
     seed: int
     planner: str
+    env_id: str = "SlideGym/TopSlideGrasp-v0"
     success: bool = False
     expert: ExpertReport = field(default_factory=ExpertReport)
     phase_reached: str
@@ -97,6 +100,7 @@ class EpisodeRecord:
         planner: str,
         reason: str | Exception,
         scale: float = 1.0,
+        env_id: str = "SlideGym/TopSlideGrasp-v0",
     ) -> EpisodeRecord:
         """A scene refused before any episode ran (bad name, object too large, ...)."""
         return cls(
@@ -105,6 +109,7 @@ class EpisodeRecord:
             scale=float(scale),
             seed=int(seed),
             planner=planner,
+            env_id=env_id,
             phase_reached="rejected",
             expert=ExpertReport(planning_time_s=None, failure=str(reason)),
         )

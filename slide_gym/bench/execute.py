@@ -27,6 +27,8 @@ TRIALS = 10
 TIME_BUDGET = 10.0
 """Planning seconds per episode (first plan and replans together)."""
 OUT = Path("results/bench_execute.jsonl")
+ENV_ID = "SlideGym/TopSlideGrasp-v0"
+"""The default environment: slide, grasp and lift."""
 
 
 def _run_episode() -> Callable[..., EpisodeRecord]:
@@ -53,6 +55,7 @@ def execute_case(case: dict[str, Any]) -> dict[str, Any]:
             time_budget=case["time_budget"],
             scale=case.get("scale", 1.0),
             thickness=case.get("thickness"),
+            env_id=case.get("env_id", ENV_ID),
         )
     except ValueError as err:
         record = EpisodeRecord.rejected(
@@ -62,6 +65,7 @@ def execute_case(case: dict[str, Any]) -> dict[str, Any]:
             planner=case["planner"],
             reason=err,
             scale=case.get("scale", 1.0),
+            env_id=case.get("env_id", ENV_ID),
         )
     return record.to_json_dict()
 
@@ -77,14 +81,17 @@ def bench_execute(
     seed: int = 0,
     scale: float = 1.0,
     thickness: float | None = None,
+    env_id: str = ENV_ID,
 ) -> dict[str, Any]:
     """Run ``trials`` seeded episodes per object and table (resumable: results go to ``out``).
 
     Episode ``i`` of a catalog object uses seed ``seed + i`` on every table. Procedural plates
     are not repeated across tables: table ``k`` of ``T`` gets the plates of seeds
     ``seed + k + T * i``, so ``--objects procedural --trials 50`` runs 200 different plates
-    on the 4 tables. ``scale`` and ``thickness`` (m) apply to every object.
+    on the 4 tables. ``scale`` and ``thickness`` (m) apply to every object. ``env_id``: the
+    environment (``SlideGym/TopSlide-v0``: the slide alone, success = left graspable).
     """
+    from slide_gym import ENV_IDS
     from slide_gym.geometry import get_object, get_table
     from slide_gym.planning.result import check_time_budget
     from slide_gym.planning.search import PLANNERS
@@ -95,6 +102,8 @@ def bench_execute(
         raise ValueError(f"trials must be >= 1, got {trials}")
     if planner not in PLANNERS:
         raise ValueError(f"planner must be one of {', '.join(PLANNERS)}, got {planner!r}")
+    if env_id not in ENV_IDS:
+        raise ValueError(f"env must be one of {', '.join(ENV_IDS)}, got {env_id!r}")
     if not objects or not tables:
         raise ValueError("need at least one object and one table")
     for name in objects:
@@ -105,6 +114,8 @@ def bench_execute(
     extra = {"scale": float(scale)} if scale != 1.0 else {}
     if thickness is not None:
         extra["thickness"] = float(thickness)
+    if env_id != ENV_ID:
+        extra["env_id"] = env_id
     n = len(tables)
     cases = [
         {

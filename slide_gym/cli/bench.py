@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from slide_gym import ENV_IDS
 from slide_gym.cli.args import parse_floats, parse_names
 from slide_gym.planning.search import PLANNERS
 
@@ -46,6 +47,7 @@ def _cmd_bench_execute(args: argparse.Namespace) -> int:
     summary = bench_execute(
         objects=parse_names(args.objects),
         tables=parse_names(args.tables),
+        env_id=args.env,
         **{name: getattr(args, name) for name in options},
     )
     print(execute_markdown_table(summary) if args.markdown else json.dumps(summary, indent=2))
@@ -202,6 +204,12 @@ def _add_execute(what: Any) -> None:
     _add_trials(p, execute.TRIALS, "episodes per scene", execute.TIME_BUDGET, budget_help)
     p.add_argument("--scale", type=float, default=1.0, help="object scale")
     p.add_argument("--thickness", type=float, metavar="M", help="override every plate's (m)")
+    p.add_argument(
+        "--env",
+        choices=ENV_IDS,
+        default=execute.ENV_ID,
+        help="environment (TopSlide-v0: the slide alone, success = left graspable)",
+    )
     _add_jobs(p, execute.OUT, "first episode seed (trial k uses SEED + k)")
     p.add_argument("--markdown", action="store_true", help="print markdown tables, not JSON")
     p.set_defaults(func=_cmd_bench_execute)

@@ -10,6 +10,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from slide_gym import ENV_IDS
 from slide_gym.cli.args import check_output, or_na, parse_floats
 from slide_gym.planning.search import PLANNERS
 
@@ -132,6 +133,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         time_budget=args.time_budget,
         video=args.video,
         thickness=args.thickness,
+        env_id=args.env,
     )
     if args.json:
         print(json.dumps(r.to_json_dict()))
@@ -213,5 +215,8 @@ def add_parsers(sub: Any) -> None:
     p.add_argument("--planner", choices=PLANNERS, default="regions")
     p.add_argument("--time-budget", type=float, default=10.0, help="planning seconds per query")
     p.add_argument("--video", type=Path, default=None, help="write an MP4 or GIF here")
+    p.add_argument(
+        "--env", choices=ENV_IDS, default="SlideGym/TopSlideGrasp-v0", help="environment"
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=_cmd_run)

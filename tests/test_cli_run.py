@@ -102,6 +102,7 @@ def test_run_json_prints_one_object_with_the_contract_keys(
             "time_budget": 10.0,
             "video": None,
             "thickness": None,
+            "env_id": "SlideGym/TopSlideGrasp-v0",
         }
     ]
 
@@ -112,7 +113,7 @@ def test_run_passes_options_and_prints_a_short_summary(
     video = tmp_path / "ep.gif"
     argv = ["run", "--object", "E", "--table", "round", "--scale", "1.2", "--seed", "3"]
     argv += ["--planner", "cbirrt2", "--time-budget", "4", "--video", str(video)]
-    argv += ["--thickness", "0.0008"]
+    argv += ["--thickness", "0.0008", "--env", "SlideGym/TopSlide-v0"]
     assert main(argv) == 0
     assert fake.calls[0] == {
         "object": "E",
@@ -123,6 +124,7 @@ def test_run_passes_options_and_prints_a_short_summary(
         "time_budget": 4.0,
         "video": video,
         "thickness": 0.0008,
+        "env_id": "SlideGym/TopSlide-v0",
     }
     lines = capsys.readouterr().out.splitlines()
     assert 2 <= len(lines) <= 6

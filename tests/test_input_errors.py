@@ -311,3 +311,11 @@ def test_cli_exit_code_in_a_real_process(tmp_path: Path) -> None:
 def test_display_check_is_used_by_the_simulation() -> None:
     assert slide_gym.sim.check_render_mode(None) is None
     assert slide_gym.sim.check_render_mode("rgb_array") is None
+
+
+def test_unknown_env_id_names_the_registered_ones(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(ValueError, match="env_id must be one of SlideGym/TopSlide-v0"):
+        run_episode("square", "square", env_id="SlideGym/Nope-v0")
+    with pytest.raises(SystemExit) as exc:
+        main(["bench", "execute", "--env", "SlideGym/Nope-v0"])
+    assert exc.value.code == 2 and "SlideGym/TopSlideGrasp-v0" in capsys.readouterr().err

@@ -9,8 +9,10 @@ export OMP_NUM_THREADS ?= 1
 $(VENV)/.installed: pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	# torch first, from its CPU build: a bare torch requirement would pull a CUDA build.
-	$(PY) -m pip install -q torch==2.13.0
+	# torch first, so that stable-baselines3 keeps it. On this project's machines the pin
+	# resolves to a CPU wheel; elsewhere pass TORCH_INDEX=https://download.pytorch.org/whl/cpu
+	# (PyPI's torch==2.13.0 for Linux is the multi-GB CUDA build).
+	$(PY) -m pip install -q torch==2.13.0 $(if $(TORCH_INDEX),--index-url $(TORCH_INDEX))
 	$(PY) -m pip install -q -e ".[dev,rl]"
 	touch $@
 

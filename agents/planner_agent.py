@@ -32,6 +32,9 @@ class PlannerAgent:
     ``episode_start`` says so (as ``evaluate_policy`` and SB3 loops pass it), when
     :meth:`reset` is called, or, when ``episode_start`` is not given at all, when the observed
     arm is far from the agent's last target (an environment reset that nobody reported).
+    ``episode_start`` set for a slot on consecutive calls counts once, unless the arm jumped:
+    SB3's ``evaluate_policy`` leaves it set for an environment that has finished its
+    episodes while the others run on, and re-planning on every such step stalled it.
 
     Args:
         planner: ``"regions"`` (the paper's), ``"cbirrt"`` or ``"cbirrt2"`` (the baselines).
@@ -72,6 +75,7 @@ class PlannerAgent:
         self.library = SceneLibrary(objects, tables)
         self.max_joint_step, self.control_dt = float(max_joint_step), 1.0 / float(control_hz)
         self._slots: list[SlideGraspExpert | None] = []
+        self._started: list[bool] = []  # episode_start of each slot's last call
 
     def reset(self) -> None:
         """Forget every slot's episode; the next observation starts a new one."""
@@ -79,6 +83,7 @@ class PlannerAgent:
             if slot is not None:
                 slot.close()
         self._slots = []
+        self._started = []
 
     def expert(self, index: int = 0) -> SlideGraspExpert | None:
         """The controller of batch slot ``index`` (its ``report``, an
@@ -103,14 +108,18 @@ class PlannerAgent:
         if len(starts) != n:
             raise ValueError(f"episode_start has {len(starts)} entries for {n} observations")
         self._slots += [None] * (n - len(self._slots))
+        self._started += [False] * (n - len(self._started))
         actions = []
         for i in range(n):
             obs = {
                 k: np.asarray(v)[i] if batched else np.asarray(v) for k, v in observation.items()
             }
             slot = self._slots[i]
-            unreported_reset = episode_start is None and self._was_reset(slot, obs)
-            if starts[i] or slot is None or unreported_reset:
+            repeated = starts[i] and self._started[i]
+            jumped = self._was_reset(slot, obs)
+            unreported_reset = episode_start is None and jumped
+            self._started[i] = bool(starts[i])
+            if (starts[i] and (not repeated or jumped)) or slot is None or unreported_reset:
                 if slot is not None:
                     slot.close()
                 slot = self._slots[i] = self._new_expert()

@@ -17,6 +17,7 @@ from slide_gym.planning.api import GraspParams
 from slide_gym.robot.kinematics import fingertip_chain
 
 GRASP_ENV = "SlideGym/TopSlideGrasp-v0"
+SLIDE_ENV = "SlideGym/TopSlide-v0"
 
 
 @pytest.fixture(scope="module")
@@ -121,6 +122,28 @@ def test_evaluate_policy_runs_the_agent_on_a_vectorised_env():
     )
     assert lengths == [30, 30] and len(rewards) == 2
     env.close()
+
+
+@pytest.mark.slow
+def test_evaluate_policy_with_two_envs_plans_once_per_episode(monkeypatch):
+    """SB3 keeps ``episode_start`` set for an env that has finished its episodes; the agent
+    must not start (and plan) a new episode on every one of those steps."""
+    evaluation = pytest.importorskip("stable_baselines3.common.evaluation")
+    vec_env = pytest.importorskip("stable_baselines3.common.env_util")
+    envs = vec_env.make_vec_env(
+        SLIDE_ENV, n_envs=2, seed=0, env_kwargs={"object": "square", "table": "square"}
+    )
+    agent = PlannerAgent("regions", 60.0, seed=0)
+    made = []
+    new_expert = agent._new_expert
+    monkeypatch.setattr(agent, "_new_expert", lambda: made.append(1) or new_expert())
+    rewards, lengths = evaluation.evaluate_policy(
+        agent, envs, n_eval_episodes=4, return_episode_rewards=True
+    )
+    envs.close()
+    assert len(lengths) == 4 and max(lengths) < 300  # every episode succeeded in time
+    # 4 counted episodes, plus at most one more begun by each env while the other finishes
+    assert 4 <= len(made) <= 6
 
 
 @pytest.fixture(scope="module")

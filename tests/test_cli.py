@@ -49,7 +49,7 @@ def test_bad_json_file_exits_2(tmp_path: Path, capsys: pytest.CaptureFixture[str
 
 
 def test_demo_runs_and_succeeds(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["demo", "--object", "L", "--seed", "0"]) == 0
+    assert main(["demo", "--object", "L", "--seed", "0", "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["success"] is True
     assert summary["overhang_m"] >= 0.03

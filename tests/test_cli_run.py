@@ -135,8 +135,8 @@ def test_run_passes_options_and_prints_a_short_summary(
 def test_run_value_error_exits_2_with_one_line_on_stderr(
     fake: FakeEpisode, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    fake.error = "unknown object 'banana'; choose from square, circle"
-    assert main(["run", "--object", "banana", "--json"]) == 2
+    fake.error = "could not place object 'L' on table 'triangle': the object is too large"
+    assert main(["run", "--table", "triangle", "--json"]) == 2
     captured = capsys.readouterr()
     assert captured.out == ""
     assert captured.err == f"slide-gym run: error: {fake.error}\n"

@@ -10,15 +10,28 @@ import argparse
 import sys
 from collections.abc import Sequence
 
+from slide_gym import __version__
 from slide_gym.cli import bench, commands
-from slide_gym.cli.args import check_seed
+from slide_gym.cli.args import HelpFormatter, check_seed, examples_epilog
+
+EXAMPLES = (
+    "slide-gym shapes",
+    "slide-gym run --object E --table square --seed 0 --video expert.gif",
+    "slide-gym plan --object L --table round --json",
+    "slide-gym run --help   (each command's options, units and defaults)",
+)
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``slide-gym`` argument parser with every subcommand."""
     parser = argparse.ArgumentParser(
-        prog="slide-gym", description="Pre-grasp top-sliding of thin objects: tools."
+        prog="slide-gym",
+        description="Pre-grasp top-sliding of thin objects: tools.\nEvery command's --help "
+        "lists its options with their units and defaults.",
+        epilog=examples_epilog(EXAMPLES),
+        formatter_class=HelpFormatter,
     )
+    parser.add_argument("--version", action="version", version=f"slide-gym {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     commands.add_parsers(sub)
     bench.add_parsers(sub)

@@ -1,9 +1,81 @@
-"""Parsing and formatting helpers shared by the subcommands."""
+"""Parsing, checking and formatting helpers shared by the subcommands."""
 
 from __future__ import annotations
 
+import argparse
+import textwrap
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
+
+from slide_gym.geometry.shape_json import closest
+
+
+class HelpFormatter(argparse.RawDescriptionHelpFormatter, argparse.ArgumentDefaultsHelpFormatter):
+    """Help lines end with ``(default: ...)`` unless the default is None or False (their help
+    says what happens instead) or the help already names it; the description and the
+    ``Examples:`` epilog keep their line breaks."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        if action.default is None or action.default is False or "default:" in text:
+            return text
+        return super()._get_help_string(action)
+
+
+def add_command(
+    sub: Any,
+    name: str,
+    help: str,
+    description: str,
+    examples: Sequence[str],  # noqa: A002
+) -> argparse.ArgumentParser:
+    """A subcommand of ``sub`` whose help shows defaults and ends with ``examples``."""
+    return sub.add_parser(
+        name,
+        help=help,
+        description=textwrap.fill(description, width=79),
+        epilog=examples_epilog(examples),
+        formatter_class=HelpFormatter,
+    )
+
+
+def examples_epilog(examples: Sequence[str]) -> str:
+    """The ``Examples:`` block that ends a help text."""
+    return "Examples:\n" + "\n".join(f"  {line}" for line in examples)
+
+
+def check_name(spec: str, kind: str, names: Sequence[str], extra: Sequence[str] = ()) -> str:
+    """``spec`` if it is one of ``names`` or ``extra`` or a ``.json`` path (the loader checks
+    the file); else a ValueError naming the closest name (``l`` -> ``L``) and every valid one.
+
+    Checked before any work, so a typo never waits for an episode to start."""
+    if spec in names or spec in extra or spec.lower().endswith(".json"):
+        return spec
+    choices = (*names, *extra)
+    near = closest(spec, choices)
+    hint = f"did you mean {near!r}? " if near is not None else ""
+    raise ValueError(
+        f"unknown {kind} {spec!r}; {hint}valid names: {', '.join(choices)} "
+        "(or a path to a .json file)"
+    )
+
+
+def choice(choices: Sequence[str], what: str) -> Callable[[str], str]:
+    """An argparse ``type`` that accepts one of ``choices`` and otherwise names the closest
+    (use with ``choices=``, which lists them in the help)."""
+
+    def parse(text: str) -> str:
+        if text in choices:
+            return text
+        near = closest(text, choices)
+        hint = f"did you mean {near!r}? " if near is not None else ""
+        raise argparse.ArgumentTypeError(
+            f"unknown {what} {text!r}; {hint}choose from {', '.join(choices)}"
+        )
+
+    parse.__name__ = what  # argparse names the type in some messages
+    return parse
 
 
 def parse_floats(text: str, n: int, what: str) -> tuple[float, ...]:
@@ -45,3 +117,11 @@ def parse_names(text: str) -> list[str]:
 def or_na(value: Any, spec: str, suffix: str = "") -> str:
     """``value`` formatted with ``spec`` and ``suffix``, or ``"n/a"`` for None."""
     return "n/a" if value is None else f"{value:{spec}}{suffix}"
+
+
+def fmt_pose(pose: Sequence[float] | None) -> str:
+    """A planar pose ``(x, y, yaw)`` for plain text: metres and radians to 3 decimals."""
+    if pose is None:
+        return "n/a"
+    x, y, yaw = (float(v) for v in pose)
+    return f"(x {x:.3f} m, y {y:.3f} m, yaw {yaw:.3f} rad)"

@@ -8,7 +8,14 @@ from pathlib import Path
 from typing import Any
 
 from slide_gym import ENV_IDS
-from slide_gym.cli.args import parse_floats, parse_names
+from slide_gym.cli.args import (
+    HelpFormatter,
+    add_command,
+    choice,
+    examples_epilog,
+    parse_floats,
+    parse_names,
+)
 from slide_gym.planning.search import PLANNERS
 
 
@@ -59,7 +66,12 @@ def add_parsers(sub: Any) -> None:
     bench = sub.add_parser(
         "bench",
         help="benchmarks: env throughput, planners, expert episodes",
-        description="Benchmarks; the README's numbers come from these. Results print as JSON.",
+        description="Benchmarks; the README's numbers come from these. Results print as JSON.\n"
+        "Each benchmark has its own options and defaults: slide-gym bench env --help.",
+        epilog=examples_epilog(
+            ["slide-gym bench env", "slide-gym bench execute --trials 2 --markdown"]
+        ),
+        formatter_class=HelpFormatter,
     )
     what = bench.add_subparsers(dest="what", metavar="{env,plan,execute}", required=True)
     _add_env(what)
@@ -67,26 +79,20 @@ def add_parsers(sub: Any) -> None:
     _add_execute(what)
 
 
-class _DefaultsHelp(argparse.ArgumentDefaultsHelpFormatter):
-    """Help lines end with ``(default: ...)``, except options whose default is None."""
-
-    def _get_help_string(self, action: argparse.Action) -> str | None:
-        return action.help if action.default is None else super()._get_help_string(action)
-
-
-def _parser(what: Any, name: str, help: str, description: str) -> argparse.ArgumentParser:  # noqa: A002
-    """A benchmark subcommand whose help lines end with their defaults."""
-    return what.add_parser(
-        name,
-        help=help,
-        description=description,
-        formatter_class=_DefaultsHelp,
-    )
+def _parser(
+    what: Any,
+    name: str,
+    help: str,  # noqa: A002
+    description: str,
+    examples: list[str],
+) -> argparse.ArgumentParser:
+    """A benchmark subcommand whose help lines end with their defaults, then examples."""
+    return add_command(what, name, help, description, [f"slide-gym bench {e}" for e in examples])
 
 
 def _add_jobs(p: argparse.ArgumentParser, out: Path, first_seed: str) -> None:
     """Options of the resumable, parallel benchmarks."""
-    p.add_argument("--seed", type=int, default=0, help=first_seed)
+    p.add_argument("--seed", type=int, default=0, metavar="N", help=first_seed)
     p.add_argument(
         "--workers", type=int, metavar="N", help="worker processes (default: one per core)"
     )
@@ -124,12 +130,13 @@ def _add_env(what: Any) -> None:
         "Step SlideGym/TopSlide-v0 with the scripted slider's actions (recorded once, "
         "replayed), then the same world without observations or rewards; time resets; then "
         "random actions (optionally against another environment on the same protocol).",
+        ["env", "env --object L --table round --drag --out results/env.jsonl"],
     )
-    p.add_argument("--object", default="square", metavar="NAME", help="catalog name or JSON file")
-    p.add_argument("--table", default="square", metavar="NAME", help="catalog name or JSON file")
+    p.add_argument("--object", default="square", metavar="NAME", help="catalog name or .json file")
+    p.add_argument("--table", default="square", metavar="NAME", help="catalog name or .json file")
     p.add_argument("--steps", type=int, default=env.STEPS, metavar="N", help="timed env steps")
     p.add_argument("--resets", type=int, default=env.RESETS, metavar="N", help="timed resets")
-    p.add_argument("--seed", type=int, default=0, help="reset seed")
+    p.add_argument("--seed", type=int, default=0, metavar="N", help="reset seed")
     p.add_argument(
         "--random-steps",
         type=int,
@@ -163,10 +170,11 @@ def _add_plan(what: Any) -> None:
         "the planners' success rate against planning time",
         "Plan from seeded random start poses with each planner; print success rates at "
         "planning-time marks (resumable, runs in parallel).",
+        ["plan --trials 5 --planners regions,cbirrt2", "plan --objects L,E --plot plan.png"],
     )
     objects, planners, dz = (",".join(v) for v in (plan.OBJECTS, PLANNERS, map(str, plan.DZ)))
     p.add_argument("--objects", default=objects, metavar="NAMES", help="comma-separated objects")
-    p.add_argument("--table", default=plan.TABLE, metavar="NAME", help="catalog name or JSON file")
+    p.add_argument("--table", default=plan.TABLE, metavar="NAME", help="catalog name or .json file")
     p.add_argument(
         "--planners", default=planners, metavar="NAMES", help=f"comma-separated, from {planners}"
     )
@@ -189,6 +197,7 @@ def _add_execute(what: Any) -> None:
         "the expert's full episodes (slide, grasp, lift) on every object and table",
         "Run the planner expert in SlideGym/TopSlideGrasp-v0 for seeded episodes per object "
         "and table; print lift rates, slide errors and times (resumable, runs in parallel).",
+        ["execute --trials 2 --markdown", "execute --objects L,procedural --tables square,round"],
     )
     objects, tables = ",".join(OBJECT_NAMES), ",".join(TABLE_NAMES)
     p.add_argument(
@@ -199,17 +208,31 @@ def _add_execute(what: Any) -> None:
         "same one on two tables",
     )
     p.add_argument("--tables", default=tables, metavar="NAMES", help="comma-separated tables")
-    p.add_argument("--planner", choices=PLANNERS, default=execute.PLANNER, help="the planner")
+    p.add_argument(
+        "--planner",
+        type=choice(PLANNERS, "planner"),
+        choices=PLANNERS,
+        default=execute.PLANNER,
+        help="the tree search",
+    )
     budget_help = "per episode, first plan and replans together"
     _add_trials(p, execute.TRIALS, "episodes per scene", execute.TIME_BUDGET, budget_help)
-    p.add_argument("--scale", type=float, default=1.0, help="object scale")
-    p.add_argument("--thickness", type=float, metavar="M", help="override every plate's (m)")
+    p.add_argument("--scale", type=float, default=1.0, metavar="FACTOR", help="object size factor")
+    p.add_argument(
+        "--thickness",
+        type=float,
+        metavar="M",
+        help="every plate's thickness in m (default: each object's own)",
+    )
     p.add_argument(
         "--env",
+        type=choice(ENV_IDS, "environment"),
         choices=ENV_IDS,
         default=execute.ENV_ID,
-        help="environment (TopSlide-v0: the slide alone, success = left graspable)",
+        metavar="ID",
+        help=f"environment, one of {', '.join(ENV_IDS)} (TopSlide-v0: the slide alone, "
+        "success = left graspable)",
     )
     _add_jobs(p, execute.OUT, "first episode seed (trial k uses SEED + k)")
-    p.add_argument("--markdown", action="store_true", help="print markdown tables, not JSON")
+    p.add_argument("--markdown", action="store_true", help="print markdown tables (default: JSON)")
     p.set_defaults(func=_cmd_bench_execute)

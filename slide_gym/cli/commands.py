@@ -5,14 +5,16 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from slide_gym import ENV_IDS
-from slide_gym.cli.args import check_output, or_na, parse_floats
+from slide_gym.cli.args import add_command, check_name, check_output, choice, parse_floats
+from slide_gym.cli.text import demo_text, plan_text, run_text
+from slide_gym.geometry import OBJECT_NAMES, TABLE_NAMES
 from slide_gym.planning.search import PLANNERS
+from slide_gym.task import PROCEDURAL
 
 if TYPE_CHECKING:  # agents builds on slide_gym: imported on use only
     from agents.record import EpisodeRecord
@@ -21,6 +23,18 @@ IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg")
 """What ``render --out`` writes."""
 VIDEO_SUFFIXES = (".gif", ".mp4")
 """What ``demo --out`` and ``run --video`` write."""
+RANDOM = "random"
+"""The environment's name for a catalog shape drawn per episode (``render`` and ``demo``)."""
+ENV_SCENE = ((RANDOM, PROCEDURAL), (RANDOM,))
+"""Extra object and table names of the commands that build the environment from names."""
+PLAN_SCENE = ((PROCEDURAL,), ())
+"""Extra object and table names of ``plan`` and ``run`` (one fixed scene)."""
+
+
+def _check_scene(args: argparse.Namespace, extra: tuple[tuple[str, ...], ...]) -> None:
+    """``--object`` and ``--table`` are names the command knows (or ``.json`` paths)."""
+    check_name(args.object, "object", OBJECT_NAMES, extra[0])
+    check_name(args.table, "table", TABLE_NAMES, extra[1])
 
 
 def _cmd_shapes(args: argparse.Namespace) -> int:
@@ -48,15 +62,17 @@ def _cmd_shapes(args: argparse.Namespace) -> int:
 
 
 def _cmd_render(args: argparse.Namespace) -> int:
-    import imageio.v3 as iio
-
-    from slide_gym.envs.top_slide import TopSlideEnv
     from slide_gym.sim import MAX_IMAGE_SIDE
 
+    _check_scene(args, ENV_SCENE)
     check_output(args.out, IMAGE_SUFFIXES, "--out")
     for option, value in (("--width", args.width), ("--height", args.height)):
         if not 1 <= value <= MAX_IMAGE_SIDE:
             raise ValueError(f"{option} must be 1..{MAX_IMAGE_SIDE} pixels, got {value}")
+    import imageio.v3 as iio
+
+    from slide_gym.envs.top_slide import TopSlideEnv
+
     env = TopSlideEnv(
         object=args.object, table=args.table, scale=args.scale, render_mode="rgb_array"
     )
@@ -70,19 +86,26 @@ def _cmd_render(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cmd_demo(args: argparse.Namespace) -> int:
+def _run_demo() -> Callable[..., dict[str, Any]]:
+    """``agents.scripted.run_demo``, imported on use."""
     from agents.scripted import run_demo
 
+    return run_demo
+
+
+def _cmd_demo(args: argparse.Namespace) -> int:
+    _check_scene(args, ENV_SCENE)
     if args.out is not None:
         check_output(args.out, VIDEO_SUFFIXES, "--out")
-    summary = run_demo(args.object, args.table, seed=args.seed, out=args.out)
-    print(json.dumps(summary, indent=2))
+    summary = _run_demo()(args.object, args.table, seed=args.seed, out=args.out)
+    print(json.dumps(summary, indent=2) if args.json else demo_text(summary))
     return 0
 
 
 def _cmd_plan(args: argparse.Namespace) -> int:
     from slide_gym.planning.runner import make_params, plan_once
 
+    _check_scene(args, PLAN_SCENE)
     dz = parse_floats(args.dz, 2, "--dz") if args.dz else None
     params = make_params(dz=dz, dbeta=args.dbeta, n_star=args.n_star)
     pose = parse_floats(args.object_pose, 3, "--object-pose") if args.object_pose else None
@@ -97,20 +120,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
         time_budget=args.time_budget,
         params=params,
     )
-    if args.json:
-        print(json.dumps(out))
-        return 0
-    print(
-        f"{out['status']} ({out['planner']}, {out['planning_time_s']:.3f} s): "
-        f"{out['object']} on {out['table']} from {out['object_start_pose']}"
-    )
-    if out["status"] == "solved":
-        print(
-            f"  goal pose {out['object_goal_pose']}, overhang {out['overhang_m']:.3f} m, "
-            f"{len(out['path'])} path configurations"
-        )
-    elif out["reason"]:
-        print(f"  {out['reason']}")
+    print(json.dumps(out) if args.json else plan_text(out))
     return 0
 
 
@@ -122,6 +132,7 @@ def _run_episode() -> Callable[..., EpisodeRecord]:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
+    _check_scene(args, PLAN_SCENE)
     if args.video is not None:
         check_output(args.video, VIDEO_SUFFIXES, "--video")
     r = _run_episode()(
@@ -138,85 +149,169 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(r.to_json_dict()))
         return 0
-    e = r.expert
-    print(
-        f"{'lifted' if r.success else 'failed'}: {r.object} on {r.table}, seed {r.seed}, "
-        f"{r.planner} planner, phase reached {r.phase_reached}"
-    )
-    print(
-        f"  planned {'yes' if e.planned else 'no'} ({e.replans} replans, "
-        f"{or_na(e.planning_time_s, '.2f', ' s')} planning); {r.steps} steps, "
-        f"{or_na(r.sim_time_s, '.1f', ' s')} simulated in {or_na(r.wall_time_s, '.1f', ' s')}"
-    )
-    cm = None if e.slide_error_m is None else 100.0 * e.slide_error_m
-    deg = None if e.slide_error_rad is None else math.degrees(e.slide_error_rad)
-    pose = r.object_final_pose
-    print(
-        f"  slide error {or_na(cm, '.1f', ' cm')} / {or_na(deg, '.1f', ' deg')}, lift "
-        f"{or_na(r.lift_height_m, '.3f', ' m')}, final pose "
-        + ("n/a" if pose is None else "(" + ", ".join(f"{v:.3f}" for v in pose) + ")")
-    )
-    if e.failure:
-        print(f"  failure: {e.failure}")
+    print(run_text(r))
     if args.video is not None:
         print(f"  wrote {args.video}")
     return 0
 
 
+def _scene_args(p: argparse.ArgumentParser, extra: tuple[tuple[str, ...], ...], seed: str) -> None:
+    """``--object``, ``--table`` and ``--seed``; ``extra``: the names besides the catalog's."""
+    hints = {
+        RANDOM: "random (a catalog shape drawn from --seed)",
+        PROCEDURAL: "procedural (the plate of --seed)",
+    }
+    objects, tables = (
+        ", ".join(["catalog name (see: slide-gym shapes)", *(hints[n] for n in names)])
+        + " or .json file"
+        for names in extra
+    )
+    p.add_argument("--object", default="L", metavar="NAME", help=objects)
+    p.add_argument("--table", default="square", metavar="NAME", help=tables)
+    p.add_argument("--seed", type=int, default=0, metavar="N", help=seed)
+
+
+def _scale(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--scale", type=float, default=1.0, metavar="FACTOR", help="object size factor")
+
+
+def _thickness(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--thickness",
+        type=float,
+        metavar="M",
+        help="plate thickness in m (default: the object's own)",
+    )
+
+
+def _planning(p: argparse.ArgumentParser, budget_help: str) -> None:
+    """``--planner`` and ``--time-budget``."""
+    p.add_argument(
+        "--planner",
+        type=choice(PLANNERS, "planner"),
+        choices=PLANNERS,
+        default="regions",
+        help="the tree search",
+    )
+    p.add_argument(
+        "--time-budget",
+        type=float,
+        default=10.0,
+        metavar="S",
+        help=f"planning time in s {budget_help}",
+    )
+
+
+def _json_flag(p: argparse.ArgumentParser, what: str) -> None:
+    p.add_argument(
+        "--json", action="store_true", help=f"print {what} (default: a short plain-text summary)"
+    )
+
+
 def add_parsers(sub: Any) -> None:
     """Register the subcommands on ``sub`` (the top-level subparsers)."""
-    p = sub.add_parser("shapes", help="list the built-in objects and tables")
-    p.add_argument("--json", action="store_true", help="print polygons and sizes as JSON")
+    p = add_command(
+        sub,
+        "shapes",
+        "list the built-in objects and tables",
+        "The catalog: every object (polygon, thickness) and table (polygon, height).",
+        ["slide-gym shapes", "slide-gym shapes --json > shapes.json"],
+    )
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help="print polygons and sizes as JSON (default: a plain-text table)",
+    )
     p.set_defaults(func=_cmd_shapes)
 
-    def scene_args(p: argparse.ArgumentParser, objects: str = "catalog name or JSON file") -> None:
-        p.add_argument("--object", default="L", help=objects)
-        p.add_argument("--table", default="square", help="catalog name or JSON file")
-        p.add_argument("--seed", type=int, default=0)
-
-    p = sub.add_parser("render", help="render one start scene to a PNG")
-    scene_args(p)
-    p.add_argument("--scale", type=float, default=1.0)
-    p.add_argument("--width", type=int, default=640)
-    p.add_argument("--height", type=int, default=480)
-    p.add_argument("--out", type=Path, default=Path("scene.png"))
+    p = add_command(
+        sub,
+        "render",
+        "render one start scene to a PNG",
+        "Reset SlideGym/TopSlide-v0 with --seed and render the start scene to an image.",
+        ["slide-gym render --object L --table round --out scene.png"],
+    )
+    _scene_args(p, ENV_SCENE, "reset seed: the start pose")
+    _scale(p)
+    p.add_argument("--width", type=int, default=640, metavar="PX", help="image width, pixels")
+    p.add_argument("--height", type=int, default=480, metavar="PX", help="image height, pixels")
+    p.add_argument(
+        "--out", type=Path, default=Path("scene.png"), metavar="FILE", help="PNG or JPEG to write"
+    )
     p.set_defaults(func=_cmd_render)
 
-    p = sub.add_parser("demo", help="run one scripted episode, write a GIF, print a summary")
-    scene_args(p)
-    p.add_argument("--out", type=Path, default=None, help="write a GIF (or MP4) here")
+    p = add_command(
+        sub,
+        "demo",
+        "run one scripted slide (no planner), optionally write a GIF, print a summary",
+        "Run the scripted slider for one episode of SlideGym/TopSlide-v0 (no planner).",
+        [
+            "slide-gym demo --object L --out demo.gif",
+            "slide-gym demo --object E --table round --seed 3 --json",
+        ],
+    )
+    _scene_args(p, ENV_SCENE, "episode seed: the start pose")
+    p.add_argument("--out", type=Path, metavar="FILE", help="also write a GIF (or MP4) here")
+    _json_flag(p, "the summary as JSON")
     p.set_defaults(func=_cmd_demo)
 
-    p = sub.add_parser("plan", help="plan one top-slide (and grasp) for an object on a table")
-    p.add_argument(
-        "--object",
-        required=True,
-        help="catalog name, JSON file, or procedural (the plate of --seed)",
+    p = add_command(
+        sub,
+        "plan",
+        "plan one top-slide (and grasp) for an object on a table",
+        "Plan a slide of the object from its start pose to a graspable overhang, and the "
+        "grasp; --json prints every field (see the README, 'Command line').",
+        [
+            "slide-gym plan --object E --table round --seed 3",
+            "slide-gym plan --object L --object-pose 0.6,0.1,0.3 --planner cbirrt2 --json",
+        ],
     )
-    p.add_argument("--table", required=True, help="catalog name or JSON file")
-    p.add_argument("--scale", type=float, default=1.0)
-    p.add_argument("--thickness", type=float, default=None, help="override the plate's (m)")
-    p.add_argument("--object-pose", default=None, help="X,Y,YAW; default: random from --seed")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--planner", choices=PLANNERS, default="regions")
-    p.add_argument("--time-budget", type=float, default=10.0, help="seconds")
-    p.add_argument("--dz", default=None, help="LO,HI contact depth relaxation (m)")
-    p.add_argument("--dbeta", type=float, default=None, help="pitch relaxation (rad)")
-    p.add_argument("--n-star", type=int, default=None, help="root-adding constant N*")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    _scene_args(p, PLAN_SCENE, "seed of the start pose (and of the procedural plate)")
+    _scale(p)
+    _thickness(p)
+    p.add_argument(
+        "--object-pose",
+        metavar="X,Y,YAW",
+        help="start pose in m, m, rad (default: random from --seed)",
+    )
+    _planning(p, "for the query")
+    p.add_argument(
+        "--dz", metavar="LO,HI", help="contact depth relaxation in m (default: the planner's)"
+    )
+    p.add_argument(
+        "--dbeta",
+        type=float,
+        metavar="RAD",
+        help="pitch relaxation in rad (default: the planner's)",
+    )
+    p.add_argument(
+        "--n-star", type=int, metavar="N", help="root-adding constant N* (default: the planner's)"
+    )
+    _json_flag(p, "one JSON object, full precision")
     p.set_defaults(func=_cmd_plan)
 
-    p = sub.add_parser(
-        "run", help="run the planner expert for one episode (slide, grasp, lift), print a summary"
+    p = add_command(
+        sub,
+        "run",
+        "run the planner expert for one episode (slide, grasp, lift), print a summary",
+        "Run the planner-driven expert for one seeded episode: plan, slide, grasp, lift.",
+        [
+            "slide-gym run --object E --table square --seed 0 --video expert.gif",
+            "slide-gym run --object procedural --seed 7 --json",
+        ],
     )
-    scene_args(p, "catalog name, JSON file, or procedural (the plate of --seed)")
-    p.add_argument("--scale", type=float, default=1.0)
-    p.add_argument("--thickness", type=float, default=None, help="override the plate's (m)")
-    p.add_argument("--planner", choices=PLANNERS, default="regions")
-    p.add_argument("--time-budget", type=float, default=10.0, help="planning seconds per query")
-    p.add_argument("--video", type=Path, default=None, help="write an MP4 or GIF here")
+    _scene_args(p, PLAN_SCENE, "episode seed: the start pose (and the procedural plate)")
+    _scale(p)
+    _thickness(p)
+    _planning(p, "per query")
+    p.add_argument("--video", type=Path, metavar="FILE", help="also write an MP4 or GIF here")
     p.add_argument(
-        "--env", choices=ENV_IDS, default="SlideGym/TopSlideGrasp-v0", help="environment"
+        "--env",
+        type=choice(ENV_IDS, "environment"),
+        choices=ENV_IDS,
+        default="SlideGym/TopSlideGrasp-v0",
+        metavar="ID",
+        help=f"environment, one of {', '.join(ENV_IDS)}",
     )
-    p.add_argument("--json", action="store_true", help="print one JSON object")
+    _json_flag(p, "one JSON object, full precision")
     p.set_defaults(func=_cmd_run)

@@ -141,7 +141,7 @@ def test_evaluate_policy_with_two_envs_plans_once_per_episode(monkeypatch):
         agent, envs, n_eval_episodes=4, return_episode_rewards=True
     )
     envs.close()
-    assert len(lengths) == 4 and max(lengths) < 300  # every episode succeeded in time
+    assert len(lengths) == 4 and max(lengths) < 800  # every episode succeeded in time
     # 4 counted episodes, plus at most one more begun by each env while the other finishes
     assert 4 <= len(made) <= 6
 

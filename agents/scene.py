@@ -14,7 +14,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from slide_gym.envs.top_slide import OBJECT_OUTLINE_POINTS, TABLE_OUTLINE_POINTS
+from slide_gym.envs.observation import OBJECT_OUTLINE_POINTS, TABLE_OUTLINE_POINTS
 from slide_gym.geometry import OBJECTS, TABLES, ObjectShape, TableShape
 
 MATCH_TOLERANCE = 1e-4

@@ -86,7 +86,7 @@ def bench_env(
             # The same world and the same actions, without observations/rewards/infos.
             env.reset(seed=seed)
             t0 = time.perf_counter()
-            target = np.array(env._arm_target)  # noqa: SLF001 - the env's start target
+            target = np.array(env.control.target)  # the env's start target
             for a in actions:
                 target = np.clip(target + max_step * a[:7], ARM_LOWER, ARM_UPPER)
                 span = env._command_arm(target)  # noqa: SLF001 - the env's own settings

@@ -6,8 +6,9 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from gymnasium import spaces
 
+from slide_gym.envs.control import CONTROL_MODES, make_control
+from slide_gym.envs.observation import OBS_MODES, StateObservation
 from slide_gym.geometry import (
     OBJECT_NAMES,
     TABLE_NAMES,
@@ -16,14 +17,7 @@ from slide_gym.geometry import (
     get_object,
     get_table,
 )
-from slide_gym.robot import (
-    ARM_LOWER,
-    ARM_UPPER,
-    FINGER_LOWER,
-    FINGER_UPPER,
-    READY_ARM_Q,
-    WamT42,
-)
+from slide_gym.robot import ARM_LOWER, ARM_UPPER, READY_ARM_Q, WamT42
 from slide_gym.sim import PhysicsParams, Simulation
 from slide_gym.task import (
     PROCEDURAL,
@@ -36,23 +30,8 @@ from slide_gym.task import (
     validate_start_pose,
 )
 
-OBJECT_OUTLINE_POINTS = 32
-TABLE_OUTLINE_POINTS = 64
-_POS_BOUND = 3.0
-_VEL_BOUND = 20.0
-_OUTLINE_BOUND = 3.0
 _SETTLE_STEPS = 24
-_FLAT_KEYS = (
-    "arm_qpos",
-    "arm_qvel",
-    "finger_qpos",
-    "finger_qvel",
-    "hand_command",
-    "fingertip_pose",
-    "object_pose",
-    "object_velocity",
-)
-"""Observation entries read from the simulator each step, in the order they are packed."""
+"""Physics steps at reset before the first observation: the plate comes to rest."""
 
 
 class TopSlideEnv(gym.Env):
@@ -136,6 +115,8 @@ class TopSlideEnv(gym.Env):
         physics_hz: float = 240.0,
         max_joint_step: float = 0.05,
         task_params: TaskParams | None = None,
+        control_mode: str = "joint_delta",
+        obs_mode: str = "state",
     ):
         if goal not in ("slide", "grasp"):
             raise ValueError(f"goal must be 'slide' or 'grasp', got {goal!r}")
@@ -153,8 +134,14 @@ class TopSlideEnv(gym.Env):
             raise ValueError(
                 f"physics_hz ({physics_hz}) must be a whole multiple of control_hz ({control_hz})"
             )
-        if not (np.isfinite(max_joint_step) and max_joint_step > 0):
-            raise ValueError(f"max_joint_step must be a positive number, got {max_joint_step}")
+        if obs_mode not in OBS_MODES:
+            raise ValueError(f"obs_mode must be one of {', '.join(OBS_MODES)}, got {obs_mode!r}")
+        if control_mode not in CONTROL_MODES:
+            raise ValueError(
+                f"control_mode must be one of {', '.join(CONTROL_MODES)}, got {control_mode!r}"
+            )
+        self.control = make_control(control_mode, max_joint_step)
+        self.control_mode, self.obs_mode = control_mode, obs_mode
         self.goal, self.reward_type, self.render_mode = goal, reward_type, render_mode
         self.n_substeps = int(round(substeps))
         self.max_joint_step = float(max_joint_step)
@@ -173,22 +160,14 @@ class TopSlideEnv(gym.Env):
         self.task = TopSlideTask(task_params)
         self.sim = Simulation(render_mode, PhysicsParams(timestep=1.0 / physics_hz))
         self.robot = WamT42(self.sim)
-        self._arm_target = np.array(READY_ARM_Q, dtype=float)
         self._u = 0.0
         self._state: SceneState | None = None
         self._lift_steps = 0  # consecutive control steps the object has been held up
         self._is_success = False
 
-        self.action_space = spaces.Box(-1.0, 1.0, (8,), np.float32)
-        self.observation_space = self._make_observation_space()
-        self._flat_slices: dict[str, tuple[int, int]] = {}
-        start = 0
-        for key in _FLAT_KEYS:
-            size = self.observation_space[key].shape[0]
-            self._flat_slices[key] = (start, start + size)
-            start += size
-        self._flat_low = np.concatenate([self.observation_space[k].low for k in _FLAT_KEYS])
-        self._flat_high = np.concatenate([self.observation_space[k].high for k in _FLAT_KEYS])
+        self.observer = StateObservation()
+        self.action_space = self.control.action_space
+        self.observation_space = self.observer.space
 
     @property
     def dt(self) -> float:
@@ -205,34 +184,6 @@ class TopSlideEnv(gym.Env):
         if spec is None:
             raise ValueError(f"{kind} must be one of {', '.join(names)}, 'random' or a .json path")
         return load(spec)
-
-    def _make_observation_space(self) -> spaces.Dict:
-        def box(low: Any, high: Any, shape: tuple[int, ...]) -> spaces.Box:
-            return spaces.Box(
-                np.broadcast_to(np.asarray(low, np.float32), shape).copy(),
-                np.broadcast_to(np.asarray(high, np.float32), shape).copy(),
-                shape,
-                np.float32,
-            )
-
-        pose_low = np.r_[[-_POS_BOUND] * 3, [-1.0] * 4]
-        return spaces.Dict(
-            {
-                "arm_qpos": box(np.asarray(ARM_LOWER) - 0.2, np.asarray(ARM_UPPER) + 0.2, (7,)),
-                "arm_qvel": box(-_VEL_BOUND, _VEL_BOUND, (7,)),
-                "finger_qpos": box(
-                    np.asarray(FINGER_LOWER) - 0.5, np.asarray(FINGER_UPPER) + 0.5, (4,)
-                ),
-                "finger_qvel": box(-5 * _VEL_BOUND, 5 * _VEL_BOUND, (4,)),
-                "hand_command": box(0.0, 1.0, (1,)),
-                "fingertip_pose": box(pose_low, -pose_low, (7,)),
-                "object_pose": box(pose_low, -pose_low, (7,)),
-                "object_velocity": box(-_VEL_BOUND, _VEL_BOUND, (6,)),
-                "object_outline": box(-_OUTLINE_BOUND, _OUTLINE_BOUND, (OBJECT_OUTLINE_POINTS, 2)),
-                "table_outline": box(-_OUTLINE_BOUND, _OUTLINE_BOUND, (TABLE_OUTLINE_POINTS, 2)),
-                "table_height": box(-_POS_BOUND, _POS_BOUND, (1,)),
-            }
-        )
 
     # --------------------------------------------------------------- gym API
     def reset(
@@ -276,23 +227,13 @@ class TopSlideEnv(gym.Env):
         self.robot.load()
         self.task.build(self.sim, obj, table, pose)
         self.robot.reset(arm_q)
-        self._arm_target = arm_q.copy()
+        self.control.reset(arm_q)
         self._u = 0.0
         self.robot.set_hand_command(0.0)
-        self.robot.set_arm_targets(self._arm_target)
+        self.robot.set_arm_targets(self.control.target)
         for _ in range(_SETTLE_STEPS):
             self.robot.step_physics()
-        space = self.observation_space
-        self._outline = np.clip(
-            obj.descriptor(OBJECT_OUTLINE_POINTS),
-            space["object_outline"].low,
-            space["object_outline"].high,
-        ).astype(np.float32)
-        self._table_outline = np.clip(
-            table.descriptor(TABLE_OUTLINE_POINTS),
-            space["table_outline"].low,
-            space["table_outline"].high,
-        ).astype(np.float32)
+        self.observer.set_scene(obj, table)
         self._state = self._read_state()
         self._lift_steps = 0
         self._is_success = self._success(self._state)
@@ -314,15 +255,8 @@ class TopSlideEnv(gym.Env):
     ) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
         if self._state is None:
             raise RuntimeError("call reset() before step()")
-        a = np.asarray(action, dtype=float).reshape(-1)
-        if a.shape != (8,) or not np.all(np.isfinite(a)):
-            raise ValueError(f"action must be 8 finite numbers in [-1, 1], got {action!r}")
-        a = np.clip(a, -1.0, 1.0)
-        self._arm_target = np.clip(
-            self._arm_target + self.max_joint_step * a[:7], ARM_LOWER, ARM_UPPER
-        )
-        self._u = float((a[7] + 1.0) / 2.0)
-        span = self._command_arm(self._arm_target)
+        target, self._u = self.control.apply(action)
+        span = self._command_arm(target)
         self.robot.set_hand_command(self._u)
         for _ in range(self.n_substeps // span):
             self.robot.step_physics()
@@ -392,27 +326,5 @@ class TopSlideEnv(gym.Env):
         }
 
     def _observation(self) -> dict[str, np.ndarray]:
-        q, dq = self.robot.joint_state()  # arm then finger joints
-        tip_pos, tip_quat = self.robot.fingertip_pose()
-        s = self._state  # the object as read once after this step
-        assert s is not None
-        flat = np.concatenate(
-            [
-                q[:7],
-                dq[:7],
-                q[7:],
-                dq[7:],
-                [self._u],
-                tip_pos,
-                tip_quat,
-                s.object_position,
-                s.object_quat,
-                s.object_velocity,
-            ]
-        )
-        flat = np.minimum(np.maximum(flat, self._flat_low), self._flat_high).astype(np.float32)
-        obs = {key: flat[a:b] for key, (a, b) in self._flat_slices.items()}
-        obs["object_outline"] = self._outline.copy()
-        obs["table_outline"] = self._table_outline.copy()
-        obs["table_height"] = np.array([self.task.table.height], dtype=np.float32)
-        return obs
+        assert self._state is not None
+        return self.observer.read(self.robot, self._state, self._u)

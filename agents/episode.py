@@ -14,7 +14,7 @@ import numpy as np
 from agents.params import ExpertParams
 from agents.planner_agent import PlannerAgent
 from agents.record import EpisodeRecord
-from slide_gym import ENV_IDS
+from slide_gym import DICT_ENV_IDS
 from slide_gym.geometry import ObjectShape, TableShape, get_table
 from slide_gym.planning.result import check_time_budget
 from slide_gym.task import scene_object
@@ -37,20 +37,23 @@ def run_episode(
     thickness: float | None = None,
     params: ExpertParams | None = None,
     env_id: str = ENV_ID,
+    object_pose: Any = None,
+    control_mode: str = "joint_delta",
     **planner_params: Any,
 ) -> EpisodeRecord:
     """Run the planner agent for one seeded episode; success is the env's ``is_success``.
 
     ``object`` may be ``"procedural"`` (the plate of ``seed``); ``thickness`` (m) overrides the
-    object's. ``env_id``: any registered id (:data:`slide_gym.ENV_IDS`); the slide envs end
-    when the plate is left graspable.
+    object's. ``env_id``: one of :data:`slide_gym.DICT_ENV_IDS`; the slide envs end
+    when the plate is left graspable. ``object_pose``: ``(x, y, yaw)`` instead of the seed's.
+    ``control_mode``: the env's and the agent's (``"joint_delta"`` or ``"ee_delta"``).
 
     ``params`` (execution) and ``planner_params`` (:class:`~slide_gym.planning.SlideParams`
     overrides) go to :class:`~agents.planner_agent.PlannerAgent`.
     """
     check_time_budget(time_budget)
-    if env_id not in ENV_IDS:
-        raise ValueError(f"env_id must be one of {', '.join(ENV_IDS)}, got {env_id!r}")
+    if env_id not in DICT_ENV_IDS:
+        raise ValueError(f"env_id must be one of {', '.join(DICT_ENV_IDS)}, got {env_id!r}")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
     if video is not None:  # checked up front: the episode takes a minute
@@ -63,7 +66,11 @@ def run_episode(
     table_shape = get_table(table)
     shape = scene_object(object, table_shape, seed=seed, scale=scale, thickness=thickness)
     env = gym.make(
-        env_id, object=shape, table=table_shape, render_mode="rgb_array" if video else None
+        env_id,
+        object=shape,
+        table=table_shape,
+        render_mode="rgb_array" if video else None,
+        control_mode=control_mode,
     )
     agent = PlannerAgent(
         planner,
@@ -72,13 +79,15 @@ def run_episode(
         objects=[shape],
         tables=[table_shape],
         params=params,
+        control_mode=control_mode,
         **planner_params,
     )
     dt = env.unwrapped.dt
     wall = time.perf_counter()
     frames = []
     try:
-        obs, info = env.reset(seed=seed)
+        options = None if object_pose is None else {"object_pose": object_pose}
+        obs, info = env.reset(seed=seed, options=options)
         start = info["object_pose_2d"]
         if video:
             frames.append(env.render())

@@ -1,8 +1,10 @@
 """One episode of the planner-driven expert: plan, press, slide, re-aim, grasp, lift.
 
 :class:`SlideGraspExpert` turns a :class:`~slide_gym.planning.TopSlidePlanner` result into the
-environment's joint-increment actions. It reads everything from observations (scene outlines,
-object pose, fingertip pose) and keeps its own copy of the environment's arm targets.
+environment's actions: joint increments, or fingertip-pose increments with an
+:class:`~agents.ee_actions.EEActions` (``control_mode="ee_delta"``). It reads everything from
+observations (scene outlines, object pose, fingertip pose) and keeps its own copy of the
+environment's arm targets.
 
 Phases: ``approach`` (joint-space move to a pose above the press point, via a raised pose if
 the direct move would hit something, else along a planned joint route; never a route the
@@ -29,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 
+from agents.ee_actions import EEActions
 from agents.params import ExpertParams, plate_slide_params, relaxed_slide_params
 from agents.record import ExpertReport
 from agents.scene import SceneLibrary
@@ -80,6 +83,7 @@ class SlideGraspExpert:
         seed: seeds the planner and the expert's own IK restarts (with the observed pose).
         library: known shapes for recognising the scene.
         control_dt: seconds per environment step; ``max_joint_step``: the env's action scale.
+        ee: for ``control_mode="ee_delta"``, the pose-increment encoder (None: joint mode).
     """
 
     def __init__(
@@ -92,8 +96,10 @@ class SlideGraspExpert:
         library: SceneLibrary,
         control_dt: float,
         max_joint_step: float,
+        ee: EEActions | None = None,
     ):
         self.planner_name, self.time_budget = planner, float(time_budget)
+        self.ee = ee
         self.slide_params, self.params, self.seed = slide_params, params, int(seed)
         self.library, self.dt, self.max_joint_step = library, control_dt, max_joint_step
         self.tip: FastChain = fingertip_chain()
@@ -113,11 +119,17 @@ class SlideGraspExpert:
 
     # ------------------------------------------------------------------ act
     def act(self, obs: dict[str, np.ndarray]) -> np.ndarray:
-        """The next action (8,) for observation ``obs``."""
+        """The next action ((8,), or (7,) in ee_delta mode) for observation ``obs``."""
         if self.q_cmd is None:
             self.q_cmd = np.asarray(obs["arm_qpos"], dtype=float).copy()
+            if self.ee is not None:
+                self.ee.reset(self.q_cmd)
             self.obj = self.library.object_from(obs["object_outline"])
             self.table = self.library.table_from(obs["table_outline"], obs["table_height"][0])
+        if self.ee is not None and self.ee.hold():  # the pose lags the last target: wait
+            assert self.ee.last is not None
+            self._steps += 1
+            return self._action(*self.ee.last)
         while not self.queue and self.phase not in ("done", "failed"):
             self._advance(obs)
         if not self.queue:
@@ -137,10 +149,14 @@ class SlideGraspExpert:
 
     def _action(self, target: np.ndarray, hand: float) -> np.ndarray:
         assert self.q_cmd is not None
+        self.hand_cmd = hand
+        if self.ee is not None:
+            action = self.ee.action(target, hand)
+            self.q_cmd = self.ee.q_cmd
+            return action
         target = np.clip(target, ARM_LOWER, ARM_UPPER)
         delta = np.clip((target - self.q_cmd) / self.max_joint_step, -1.0, 1.0)
         self.q_cmd = np.clip(self.q_cmd + self.max_joint_step * delta, ARM_LOWER, ARM_UPPER)
-        self.hand_cmd = hand
         return np.r_[delta, 2.0 * hand - 1.0].astype(np.float32)
 
     # --------------------------------------------------------------- stages

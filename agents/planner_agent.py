@@ -8,9 +8,11 @@ from typing import Any
 
 import numpy as np
 
+from agents.ee_actions import EEActions
 from agents.expert import SlideGraspExpert
 from agents.params import EXPERT_SLIDE_PARAMS, ExpertParams
 from agents.scene import SceneLibrary
+from slide_gym.envs.control import make_control
 from slide_gym.geometry import ObjectShape, TableShape
 from slide_gym.planning.api import PLANNERS, SlideParams
 from slide_gym.planning.result import check_time_budget
@@ -43,6 +45,8 @@ class PlannerAgent:
             and a single call plan identically for the same observation.
         objects, tables: shapes to recognise besides the catalog (for JSON scenes).
         params: execution parameters; ``max_joint_step`` and ``control_hz``: the env's values.
+        control_mode: the env's (``"joint_delta"`` or ``"ee_delta"``), with its
+            ``max_tip_step`` and ``max_rot_step`` in ``ee_delta`` mode.
         **planner_params: :class:`~slide_gym.planning.SlideParams` overrides (e.g. ``dz``).
     """
 
@@ -57,6 +61,9 @@ class PlannerAgent:
         params: ExpertParams | None = None,
         max_joint_step: float = 0.05,
         control_hz: float = 20.0,
+        control_mode: str = "joint_delta",
+        max_tip_step: float = 0.01,
+        max_rot_step: float = 0.05,
         **planner_params: Any,
     ):
         if planner not in PLANNERS:
@@ -74,6 +81,8 @@ class PlannerAgent:
         self.params = params or ExpertParams()
         self.library = SceneLibrary(objects, tables)
         self.max_joint_step, self.control_dt = float(max_joint_step), 1.0 / float(control_hz)
+        make_control(control_mode, max_joint_step, max_tip_step, max_rot_step)  # checks them
+        self.control_mode, self.ee_steps = control_mode, (float(max_tip_step), float(max_rot_step))
         self._slots: list[SlideGraspExpert | None] = []
         self._started: list[bool] = []  # episode_start of each slot's last call
 
@@ -97,7 +106,8 @@ class PlannerAgent:
         episode_start: np.ndarray | None = None,
         deterministic: bool = True,
     ) -> tuple[np.ndarray, Any]:
-        """Actions for one observation (8,) or a batch (n, 8); ``state`` is passed through."""
+        """Actions for one observation (8,) or a batch (n, 8) (7 wide in ee_delta mode); ``state``
+        is passed through."""
         if not isinstance(observation, dict) or "arm_qpos" not in observation:
             raise ValueError("observation must be a TopSlide Dict observation (with 'arm_qpos')")
         batched = np.asarray(observation["arm_qpos"]).ndim == 2
@@ -136,6 +146,9 @@ class PlannerAgent:
             self.library,
             self.control_dt,
             self.max_joint_step,
+            EEActions(self.max_joint_step, *self.ee_steps)
+            if self.control_mode == "ee_delta"
+            else None,
         )
 
     @staticmethod

@@ -1,10 +1,11 @@
 """The scene an observation describes: which object (and scale) and which table.
 
 The environment observes the object outline (in the object's frame) and the table outline (in
-the world) as fixed-size arc-length samples. An agent recognises known shapes from them exactly:
+the world) as fixed-size arc-length samples, flattened ``x0, y0, x1, ...`` (the methods here
+also take them as (n, 2) points). An agent recognises known shapes from them exactly:
 the samples of a shape scaled by ``s`` are ``s`` times its unit samples, so a least-squares
 scale and a residual identify the shape. Unknown outlines fall back to the polygon through the
-samples (an approximation: corners are cut, holes are not observed).
+samples (an approximation: corners are cut, holes are left out).
 """
 
 from __future__ import annotations
@@ -42,7 +43,7 @@ class SceneLibrary:
 
     def object_from(self, outline: np.ndarray) -> ObjectShape:
         """The known object (rescaled) whose outline samples match, else the sampled polygon."""
-        obs = np.asarray(outline, dtype=float)
+        obs = np.asarray(outline, dtype=float).reshape(OBJECT_OUTLINE_POINTS, 2)
         ref = self._object_outlines
         scales = np.einsum("kij,ij->k", ref, obs) / np.einsum("kij,kij->k", ref, ref)
         residual = np.abs(ref * scales[:, None, None] - obs).max(axis=(1, 2))
@@ -59,7 +60,7 @@ class SceneLibrary:
 
     def table_from(self, outline: np.ndarray, height: float) -> TableShape:
         """The known table whose outline samples match, else the sampled polygon."""
-        obs = np.asarray(outline, dtype=float)
+        obs = np.asarray(outline, dtype=float).reshape(TABLE_OUTLINE_POINTS, 2)
         residual = np.abs(self._table_outlines - obs).max(axis=(1, 2))
         residual[[abs(t.height - float(height)) > 1e-6 for t in self.tables]] = np.inf
         k = int(np.argmin(residual))

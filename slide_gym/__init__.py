@@ -17,7 +17,10 @@ _SPECS = {
     "SlideGym/TopSlideDense-v0": ({"goal": "slide", "reward_type": "dense"}, 800),
     "SlideGym/TopSlideGrasp-v0": ({"goal": "grasp", "reward_type": "sparse"}, 1200),
     "SlideGym/TopSlideGraspDense-v0": ({"goal": "grasp", "reward_type": "dense"}, 1200),
+    "SlideGym/TopSlideGoal-v0": ({}, 800),
 }
+_ENTRY_POINTS = {"SlideGym/TopSlideGoal-v0": "slide_gym.envs.goal:TopSlideGoalEnv"}
+"""Entry points other than :class:`TopSlideEnv` (the goal-conditioned slide, for HER)."""
 ENV_IDS: tuple[str, ...] = tuple(_SPECS)
 """The registered environment ids (time limits: 40 s to slide, 60 s to slide and grasp).
 
@@ -25,10 +28,19 @@ ENV_IDS: tuple[str, ...] = tuple(_SPECS)
 the 95th percentile and 570 at most (a slide and two replanned ones; 85 episodes of
 ``slide-gym bench execute --trials 3``), so 800 leaves room past the longest."""
 
+DICT_ENV_IDS: tuple[str, ...] = tuple(i for i in ENV_IDS if i not in _ENTRY_POINTS)
+"""The ids of :class:`~slide_gym.envs.top_slide.TopSlideEnv` itself (its state ``Dict``
+observation): the ones the planner agent, ``slide-gym run`` and ``bench execute`` drive."""
+
 for _env_id, (_kwargs, _steps) in _SPECS.items():
     if _env_id not in registry:
-        register(_env_id, entry_point=_ENTRY_POINT, kwargs=_kwargs, max_episode_steps=_steps)
+        register(
+            _env_id,
+            entry_point=_ENTRY_POINTS.get(_env_id, _ENTRY_POINT),
+            kwargs=_kwargs,
+            max_episode_steps=_steps,
+        )
 
 from slide_gym.geometry import OBJECT_NAMES, TABLE_NAMES  # noqa: E402
 
-__all__ = ["ENV_IDS", "OBJECT_NAMES", "TABLE_NAMES", "__version__"]
+__all__ = ["DICT_ENV_IDS", "ENV_IDS", "OBJECT_NAMES", "TABLE_NAMES", "__version__"]

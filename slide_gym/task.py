@@ -10,6 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
+from gymnasium.utils import seeding as gym_seeding
 from shapely.geometry import Point, Polygon
 
 from slide_gym.geometry import (
@@ -149,6 +150,16 @@ def sample_start_pose(
         f"could not place object {obj.name!r} on table {table.name!r} within the arm's reach "
         f"in {tries} random tries: the object is too large for this table"
     )
+
+
+def seeded_start_pose(
+    obj: ObjectShape, table: TableShape, seed: int, margin: float = TaskParams.start_margin
+) -> np.ndarray:
+    """The start pose of ``seed``: :func:`sample_start_pose` with the generator Gymnasium makes
+    for ``env.reset(seed=seed)``, so ``slide-gym plan``, ``slide-gym run`` and the env draw the
+    same pose for the same seed, object and table."""
+    rng, _ = gym_seeding.np_random(int(seed))
+    return sample_start_pose(obj, table, rng, margin)
 
 
 PROCEDURAL = "procedural"

@@ -113,7 +113,10 @@ def test_batched_predict_matches_single_predict(agent_kwargs):
 
 def test_evaluate_policy_runs_the_agent_on_a_vectorised_env():
     evaluation = pytest.importorskip("stable_baselines3.common.evaluation")
-    env = gym.make(GRASP_ENV, object="square", table="square", max_episode_steps=30)
+    monitor = pytest.importorskip("stable_baselines3.common.monitor")
+    env = monitor.Monitor(
+        gym.make(GRASP_ENV, object="square", table="square", max_episode_steps=30)
+    )
     # evaluate_policy resets to random poses; whether a plan comes within this short budget
     # does not matter here (the agent holds still without one): only the episode loop does.
     agent = PlannerAgent("cbirrt2", 1.0, seed=0)

@@ -39,3 +39,14 @@ def test_an_unknown_against_is_a_usage_error(capsys: pytest.CaptureFixture[str])
 def test_bench_env_rejects_bad_random_steps() -> None:
     with pytest.raises(ValueError, match="random_steps"):
         bench_env.bench_env(random_steps=0)
+
+
+def test_rgbd_reports_the_image_cost_per_step() -> None:
+    out = bench_env.bench_env(
+        steps=3, resets=1, repeats=1, random_steps=3, rgbd=True, image_size=(40, 36)
+    )
+    rgbd = out["rgbd"]
+    assert rgbd["image_size"] == [40, 36] and rgbd["env_steps_per_s"] > 0
+    assert rgbd["image_ms_per_step"] == pytest.approx(
+        1e3 * (1 / rgbd["env_steps_per_s"] - 1 / out["env_steps_per_s"])
+    )

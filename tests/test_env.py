@@ -26,6 +26,7 @@ INFO_KEYS = {
     "object_pose_2d",
     "object",
     "table",
+    "reward_terms",
 }
 
 
@@ -39,7 +40,7 @@ def test_check_env(env_id: str) -> None:
 
 
 def test_env_ids_registered() -> None:
-    assert len(slide_gym.ENV_IDS) == 4
+    assert len(slide_gym.ENV_IDS) == 5
     for env_id in slide_gym.ENV_IDS:
         assert env_id in gym.registry
         assert isinstance(gym.registry[env_id].entry_point, str)
@@ -98,7 +99,8 @@ def test_observations_in_bounds_and_info_keys() -> None:
             assert env.observation_space.contains(obs)
             obs, reward, _, _, info = env.step(rng.uniform(-1, 1, 8).astype(np.float32))
             assert set(info) == INFO_KEYS and type(info["is_success"]) is bool
-            assert isinstance(reward, float) and reward <= 0.0
+            assert isinstance(reward, float) and 0.0 <= reward <= 1.0  # shaping only
+            assert reward == pytest.approx(sum(info["reward_terms"].values()))
     finally:
         env.close()
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from agents.scene import SceneLibrary
-from slide_gym.envs.top_slide import OBJECT_OUTLINE_POINTS, TABLE_OUTLINE_POINTS
+from slide_gym.envs.observation import OBJECT_OUTLINE_POINTS, TABLE_OUTLINE_POINTS
 from slide_gym.geometry import OBJECTS, TABLES
 
 

@@ -1,6 +1,7 @@
 """``slide-gym bench env``: environment throughput, real-time factor, overhead over raw
-physics stepping, and reset time; optionally against panda-gym on random actions, and the
-press-and-drag check of :mod:`slide_gym.bench.drag` (the speed must not bring the creep back)."""
+physics stepping, and reset time; optionally the cost of ``obs_mode="rgbd"`` images, against
+panda-gym on random actions, and the press-and-drag check of :mod:`slide_gym.bench.drag` (the
+speed must not bring the creep back)."""
 
 from __future__ import annotations
 
@@ -24,6 +25,8 @@ RANDOM_STEPS = 2000
 """Env steps on random actions per run (``SlideGym/TopSlide-v0``, resets included)."""
 AGAINST = {"panda-gym": "PandaPush-v3"}
 """Other environments ``--against`` runs on the same random-action protocol."""
+IMAGE_SIZE = (128, 128)
+"""(width, height) of the ``--rgbd`` run's images (the observation's default)."""
 
 
 def bench_env(
@@ -36,6 +39,8 @@ def bench_env(
     random_steps: int = RANDOM_STEPS,
     against: str | None = None,
     drag: bool = False,
+    rgbd: bool = False,
+    image_size: tuple[int, int] = IMAGE_SIZE,
 ) -> dict[str, Any]:
     """Env throughput, real-time factor, overhead over raw physics stepping, and reset time.
 
@@ -47,6 +52,8 @@ def bench_env(
     (a key of :data:`AGAINST`) the other environment on the same protocol, runs alternating,
     best of ``repeats`` each; ``rtf_ratio`` is ours over theirs. ``drag`` adds
     :func:`slide_gym.bench.drag.drag_summary` (sinking and creep of pressed, dragged plates).
+    ``rgbd`` also replays the actions in an ``obs_mode="rgbd"`` env (``image_size`` images,
+    alternating with the other runs): its steps/s and the images' cost per step (ms).
     """
     if random_steps < 1:
         raise ValueError(f"random_steps must be >= 1, got {random_steps}")
@@ -59,7 +66,12 @@ def bench_env(
     if steps < 1 or resets < 1:
         raise ValueError(f"steps and resets must be >= 1, got {steps} and {resets}")
     env = TopSlideEnv(object=object_name, table=table_name)
+    envs = [env]
     try:
+        if rgbd:
+            width, height = image_size
+            kwargs = {"obs_mode": "rgbd", "render_width": width, "render_height": height}
+            envs.append(TopSlideEnv(object=object_name, table=table_name, **kwargs))
         reset_times = []
         for i in range(resets):
             t0 = time.perf_counter()
@@ -75,11 +87,11 @@ def bench_env(
             obs, *_ = env.step(actions[-1])
         robot, n_sub, max_step = env.robot, env.n_substeps, env.max_joint_step
 
-        def run_env() -> float:
-            env.reset(seed=seed)
+        def run_env(timed: Any = env) -> float:
+            timed.reset(seed=seed)
             t0 = time.perf_counter()
             for a in actions:
-                env.step(a)
+                timed.step(a)
             return time.perf_counter() - t0
 
         def run_raw() -> float:
@@ -96,12 +108,15 @@ def bench_env(
             return time.perf_counter() - t0
 
         # Best of a few alternating repeats: the least disturbed run of each.
-        env_wall = raw_wall = float("inf")
+        env_wall = raw_wall = rgbd_wall = float("inf")
         for _ in range(repeats):
             env_wall = min(env_wall, run_env())
             raw_wall = min(raw_wall, run_raw())
+            if rgbd:
+                rgbd_wall = min(rgbd_wall, run_env(envs[1]))
     finally:
-        env.close()
+        for each in envs:
+            each.close()
 
     sim_time = steps * env.dt
     result = {
@@ -121,6 +136,13 @@ def bench_env(
         "machine": f"{platform.processor() or platform.machine()}, "
         f"OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS', 'unset')}",
     }
+    if rgbd:
+        result["rgbd"] = {
+            "image_size": list(image_size),
+            "env_steps_per_s": steps / rgbd_wall,
+            "env_real_time_factor": sim_time / rgbd_wall,
+            "image_ms_per_step": 1e3 * (rgbd_wall - env_wall) / steps,
+        }
     result.update(_random_actions(object_name, table_name, random_steps, seed, repeats, against))
     if drag:
         from slide_gym.bench.drag import drag_summary

@@ -91,7 +91,7 @@ def bench_execute(
     on the 4 tables. ``scale`` and ``thickness`` (m) apply to every object. ``env_id``: the
     environment (``SlideGym/TopSlide-v0``: the slide alone, success = left graspable).
     """
-    from slide_gym import ENV_IDS
+    from slide_gym import DICT_ENV_IDS
     from slide_gym.geometry import get_object, get_table
     from slide_gym.planning.result import check_time_budget
     from slide_gym.planning.search import PLANNERS
@@ -102,8 +102,8 @@ def bench_execute(
         raise ValueError(f"trials must be >= 1, got {trials}")
     if planner not in PLANNERS:
         raise ValueError(f"planner must be one of {', '.join(PLANNERS)}, got {planner!r}")
-    if env_id not in ENV_IDS:
-        raise ValueError(f"env must be one of {', '.join(ENV_IDS)}, got {env_id!r}")
+    if env_id not in DICT_ENV_IDS:
+        raise ValueError(f"env must be one of {', '.join(DICT_ENV_IDS)}, got {env_id!r}")
     if not objects or not tables:
         raise ValueError("need at least one object and one table")
     for name in objects:
@@ -203,6 +203,7 @@ def summarize_execute(results: Sequence[dict[str, Any]]) -> dict[str, Any]:
         "benchmark": "execute",
         "n": len(results),
         "planners": sorted({str(r["planner"]) for r in results if r.get("planner")}),
+        "env_ids": sorted({str(r.get("env_id", ENV_ID)) for r in results}),
         "success_rate": _rate(results, "success"),
         "planned_rate": _rate(results, "planned"),
         "wall_time_s_median": _median(walls),
@@ -223,9 +224,12 @@ def _fmt(value: float | None, spec: str, suffix: str = "") -> str:
 
 def execute_markdown_table(summary: dict[str, Any]) -> str:
     """An overall line and markdown tables: per object, per table, and the failures."""
+    grasp = all("Grasp" in env_id for env_id in summary.get("env_ids", [ENV_ID]))
+    done = "lifted" if grasp else "succeeded"
     lines = [
-        f"**Overall** ({', '.join(summary['planners']) or 'no'} planner): {summary['n']} "
-        f"episodes, lifted {_fmt(_scaled(summary['success_rate'], 100.0), '.0f', '%')}, "
+        f"**Overall** ({', '.join(summary['planners']) or 'no'} planner"
+        f"{'' if grasp else ', ' + ', '.join(summary['env_ids'])}): {summary['n']} "
+        f"episodes, {done} {_fmt(_scaled(summary['success_rate'], 100.0), '.0f', '%')}, "
         f"planned {_fmt(_scaled(summary['planned_rate'], 100.0), '.0f', '%')}, "
         f"wall median {_fmt(summary['wall_time_s_median'], '.1f', ' s')} "
         f"(p90 {_fmt(summary['wall_time_s_p90'], '.1f', ' s')}), simulated median "
@@ -236,7 +240,7 @@ def execute_markdown_table(summary: dict[str, Any]) -> str:
     for kind, key in (("object", "by_object"), ("table", "by_table")):
         lines += [
             "",
-            f"| {kind} | n | lifted | slide error (cm) | slide error (deg) | wall (s) |",
+            f"| {kind} | n | {done} | slide error (cm) | slide error (deg) | wall (s) |",
             "|---|---:|---:|---:|---:|---:|",
         ]
         for name, row in summary[key].items():

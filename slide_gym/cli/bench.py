@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from slide_gym import ENV_IDS
+from slide_gym import DICT_ENV_IDS
 from slide_gym.cli.args import (
     HelpFormatter,
     add_command,
@@ -22,7 +22,7 @@ from slide_gym.planning.search import PLANNERS
 def _cmd_bench_env(args: argparse.Namespace) -> int:
     from slide_gym.bench.env import bench_env, write_result
 
-    options = ("steps", "resets", "seed", "random_steps", "against", "drag")
+    options = ("steps", "resets", "seed", "random_steps", "against", "drag", "rgbd", "image_size")
     result = bench_env(args.object, args.table, **{name: getattr(args, name) for name in options})
     write_result(result, args.out)
     return 0
@@ -130,7 +130,7 @@ def _add_env(what: Any) -> None:
         "Step SlideGym/TopSlide-v0 with the scripted slider's actions (recorded once, "
         "replayed), then the same world without observations or rewards; time resets; then "
         "random actions (optionally against another environment on the same protocol).",
-        ["env", "env --object L --table round --drag --out results/env.jsonl"],
+        ["env", "env --object L --table round --drag --out results/env.jsonl", "env --rgbd"],
     )
     p.add_argument("--object", default="square", metavar="NAME", help="catalog name or .json file")
     p.add_argument("--table", default="square", metavar="NAME", help="catalog name or .json file")
@@ -154,6 +154,20 @@ def _add_env(what: Any) -> None:
         "--drag",
         action="store_true",
         help="also press and drag plates of 0.5-10 mm by 20 cm (sinking, lag, ejections)",
+    )
+    p.add_argument(
+        "--rgbd",
+        action="store_true",
+        help="also replay the actions with obs_mode='rgbd' (scene and wrist RGB-D images): "
+        "steps/s and the images' cost per step",
+    )
+    p.add_argument(
+        "--image-size",
+        type=int,
+        nargs=2,
+        default=env.IMAGE_SIZE,
+        metavar=("W", "H"),
+        help="image width and height of --rgbd in pixels (default: {} {})".format(*env.IMAGE_SIZE),
     )
     p.add_argument(
         "--out", type=Path, metavar="FILE", help="also append the result as one JSON line here"
@@ -226,11 +240,11 @@ def _add_execute(what: Any) -> None:
     )
     p.add_argument(
         "--env",
-        type=choice(ENV_IDS, "environment"),
-        choices=ENV_IDS,
+        type=choice(DICT_ENV_IDS, "environment"),
+        choices=DICT_ENV_IDS,
         default=execute.ENV_ID,
         metavar="ID",
-        help=f"environment, one of {', '.join(ENV_IDS)} (TopSlide-v0: the slide alone, "
+        help=f"environment, one of {', '.join(DICT_ENV_IDS)} (TopSlide-v0: the slide alone, "
         "success = left graspable)",
     )
     _add_jobs(p, execute.OUT, "first episode seed (trial k uses SEED + k)")

@@ -9,7 +9,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from slide_gym import ENV_IDS
+from slide_gym import DICT_ENV_IDS
 from slide_gym.cli.args import add_command, check_name, check_output, choice, parse_floats
 from slide_gym.cli.text import demo_text, plan_text, run_text
 from slide_gym.geometry import OBJECT_NAMES, TABLE_NAMES
@@ -131,10 +131,19 @@ def _run_episode() -> Callable[..., EpisodeRecord]:
     return run_episode
 
 
+def _object_pose(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--object-pose",
+        metavar="X,Y,YAW",
+        help="start pose in m, m, rad (default: random from --seed, the env's draw)",
+    )
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
     _check_scene(args, PLAN_SCENE)
     if args.video is not None:
         check_output(args.video, VIDEO_SUFFIXES, "--video")
+    pose = parse_floats(args.object_pose, 3, "--object-pose") if args.object_pose else None
     r = _run_episode()(
         args.object,
         args.table,
@@ -145,6 +154,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         video=args.video,
         thickness=args.thickness,
         env_id=args.env,
+        object_pose=pose,
     )
     if args.json:
         print(json.dumps(r.to_json_dict()))
@@ -269,11 +279,7 @@ def add_parsers(sub: Any) -> None:
     _scene_args(p, PLAN_SCENE, "seed of the start pose (and of the procedural plate)")
     _scale(p)
     _thickness(p)
-    p.add_argument(
-        "--object-pose",
-        metavar="X,Y,YAW",
-        help="start pose in m, m, rad (default: random from --seed)",
-    )
+    _object_pose(p)
     _planning(p, "for the query")
     p.add_argument(
         "--dz", metavar="LO,HI", help="contact depth relaxation in m (default: the planner's)"
@@ -303,15 +309,16 @@ def add_parsers(sub: Any) -> None:
     _scene_args(p, PLAN_SCENE, "episode seed: the start pose (and the procedural plate)")
     _scale(p)
     _thickness(p)
+    _object_pose(p)
     _planning(p, "per query")
     p.add_argument("--video", type=Path, metavar="FILE", help="also write an MP4 or GIF here")
     p.add_argument(
         "--env",
-        type=choice(ENV_IDS, "environment"),
-        choices=ENV_IDS,
+        type=choice(DICT_ENV_IDS, "environment"),
+        choices=DICT_ENV_IDS,
         default="SlideGym/TopSlideGrasp-v0",
         metavar="ID",
-        help=f"environment, one of {', '.join(ENV_IDS)}",
+        help=f"environment, one of {', '.join(DICT_ENV_IDS)}",
     )
     _json_flag(p, "one JSON object, full precision")
     p.set_defaults(func=_cmd_run)

@@ -1,25 +1,47 @@
-"""The environment's observations: the state ``Dict`` space and how one is read.
+"""The environment's observations: the ``Dict`` spaces and how one is read.
 
 :class:`StateObservation` declares the proprioceptive, object and scene entries (see the
 table in :class:`~slide_gym.envs.top_slide.TopSlideEnv`) and packs them from the robot and
-the task's :class:`~slide_gym.task.SceneState`, clipped to the declared bounds.
+the task's :class:`~slide_gym.task.SceneState`, clipped to the declared bounds. Every entry
+is a 1-D float32 box, which Stable-Baselines3's ``check_env`` accepts without warnings: the
+outlines are flattened ``(x0, y0, x1, y1, ...)``. :class:`RgbdObservation` (``"rgbd"``) adds
+the scene and wrist cameras' images (:mod:`slide_gym.envs.cameras`).
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
+import shapely
 from gymnasium import spaces
 
-from slide_gym.geometry import ObjectShape, TableShape
+from slide_gym.envs.cameras import (
+    FAR,
+    NEAR,
+    OBS_IMAGE_SIZE,
+    WRIST_FOV,
+    WRIST_LINK,
+    Camera,
+    image_size,
+    render_rgbd,
+    wrist_view,
+)
+from slide_gym.geometry import ObjectShape, TableShape, outline_descriptor
 from slide_gym.robot import ARM_LOWER, ARM_UPPER, FINGER_LOWER, FINGER_UPPER, WamT42
 from slide_gym.task import SceneState
 
-OBS_MODES = ("state",)
-"""Observation modes: ``"state"`` (the Dict below)."""
+OBS_MODES = ("state", "rgbd")
+"""Observation modes: ``"state"`` (the Dict below) and ``"rgbd"`` (plus camera images)."""
 OBJECT_OUTLINE_POINTS = 32
 TABLE_OUTLINE_POINTS = 64
+MAX_HOLES = 4
+"""Holes the observation describes (the largest by area; any others are left out)."""
+HOLE_POINTS = 16
+"""Points per hole, evenly spaced by arc length along its ring."""
+IMAGE_KEYS = ("scene_rgb", "scene_depth", "wrist_rgb", "wrist_depth")
+"""The ``"rgbd"`` mode's extra entries."""
 POS_BOUND = 3.0
 VEL_BOUND = 20.0
 OUTLINE_BOUND = 3.0
@@ -61,11 +83,27 @@ def state_space() -> spaces.Dict:
             "fingertip_pose": box(pose_low, -pose_low, (7,)),
             "object_pose": box(pose_low, -pose_low, (7,)),
             "object_velocity": box(-VEL_BOUND, VEL_BOUND, (6,)),
-            "object_outline": box(-OUTLINE_BOUND, OUTLINE_BOUND, (OBJECT_OUTLINE_POINTS, 2)),
-            "table_outline": box(-OUTLINE_BOUND, OUTLINE_BOUND, (TABLE_OUTLINE_POINTS, 2)),
+            "object_outline": box(-OUTLINE_BOUND, OUTLINE_BOUND, (2 * OBJECT_OUTLINE_POINTS,)),
+            "object_holes": box(-OUTLINE_BOUND, OUTLINE_BOUND, (2 * MAX_HOLES * HOLE_POINTS,)),
+            "object_hole_mask": box(0.0, 1.0, (MAX_HOLES,)),
+            "table_outline": box(-OUTLINE_BOUND, OUTLINE_BOUND, (2 * TABLE_OUTLINE_POINTS,)),
             "table_height": box(-POS_BOUND, POS_BOUND, (1,)),
         }
     )
+
+
+def holes_descriptor(obj: ObjectShape) -> tuple[np.ndarray, np.ndarray]:
+    """The object's holes, largest first: (MAX_HOLES * HOLE_POINTS * 2,) points in the object
+    frame (each hole's ring resampled like an outline, CCW, flattened x, y; zeros where no
+    hole) and a (MAX_HOLES,) mask (1 where a hole is described)."""
+    rings = [shapely.Polygon(ring) for ring in obj.polygon.interiors]
+    rings.sort(key=lambda ring: -ring.area)  # stable: equal holes keep the shape's order
+    points = np.zeros((MAX_HOLES, HOLE_POINTS, 2))
+    mask = np.zeros(MAX_HOLES)
+    for i, ring in enumerate(rings[:MAX_HOLES]):
+        points[i] = outline_descriptor(ring, HOLE_POINTS)
+        mask[i] = 1.0
+    return points.reshape(-1), mask
 
 
 class StateObservation:
@@ -84,20 +122,18 @@ class StateObservation:
         self._scene: dict[str, np.ndarray] = {}
 
     def set_scene(self, obj: ObjectShape, table: TableShape) -> None:
-        """The episode's outline descriptors and table height."""
-        space = self.space
+        """The episode's outline and hole descriptors and the table height."""
+        holes, mask = holes_descriptor(obj)
+        scene = {
+            "object_outline": obj.descriptor(OBJECT_OUTLINE_POINTS).reshape(-1),
+            "object_holes": holes,
+            "object_hole_mask": mask,
+            "table_outline": table.descriptor(TABLE_OUTLINE_POINTS).reshape(-1),
+            "table_height": np.array([table.height]),
+        }
         self._scene = {
-            "object_outline": np.clip(
-                obj.descriptor(OBJECT_OUTLINE_POINTS),
-                space["object_outline"].low,
-                space["object_outline"].high,
-            ).astype(np.float32),
-            "table_outline": np.clip(
-                table.descriptor(TABLE_OUTLINE_POINTS),
-                space["table_outline"].low,
-                space["table_outline"].high,
-            ).astype(np.float32),
-            "table_height": np.array([table.height], dtype=np.float32),
+            key: np.clip(value, self.space[key].low, self.space[key].high).astype(np.float32)
+            for key, value in scene.items()
         }
 
     def read(self, robot: WamT42, state: SceneState, hand_command: float) -> dict[str, np.ndarray]:
@@ -122,3 +158,49 @@ class StateObservation:
         obs = {key: flat[a:b] for key, (a, b) in self._slices.items()}
         obs.update({key: value.copy() for key, value in self._scene.items()})
         return obs
+
+
+class RgbdObservation(StateObservation):
+    """The state entries plus RGB (uint8) and depth (float32, metres along the optical axis)
+    images of the scene camera and of the wrist camera, rendered headless every step."""
+
+    def __init__(
+        self,
+        width: int | None = None,
+        height: int | None = None,
+        camera: Camera | Mapping[str, Any] | None = None,
+    ) -> None:
+        super().__init__()
+        self.width, self.height = image_size(width, height, OBS_IMAGE_SIZE)
+        self.camera = Camera.of(camera)
+        h, w = self.height, self.width
+        rgb = spaces.Box(0, 255, (h, w, 3), np.uint8)
+        depth = box(NEAR, FAR, (h, w, 1))
+        images = dict(zip(IMAGE_KEYS, (rgb, depth, rgb, depth), strict=True))
+        self.space = spaces.Dict({**self.space.spaces, **images})
+
+    def read(self, robot: WamT42, state: SceneState, hand_command: float) -> dict[str, np.ndarray]:
+        """The state entries and this step's four images."""
+        obs = super().read(robot, state, hand_command)
+        client = robot.sim.client
+        size = (self.width, self.height)
+        scene = render_rgbd(client, self.camera.view(client), *size, self.camera.fov)
+        wrist = render_rgbd(
+            client, wrist_view(client, *robot.link_pose(WRIST_LINK)), *size, WRIST_FOV
+        )
+        obs.update(zip(IMAGE_KEYS, (*scene, *wrist), strict=True))
+        return obs
+
+
+def make_observation(
+    obs_mode: str,
+    width: int | None = None,
+    height: int | None = None,
+    camera: Camera | Mapping[str, Any] | None = None,
+) -> StateObservation:
+    """The observation of ``obs_mode`` (one of :data:`OBS_MODES`)."""
+    if obs_mode not in OBS_MODES:
+        raise ValueError(f"obs_mode must be one of {', '.join(OBS_MODES)}, got {obs_mode!r}")
+    if obs_mode == "rgbd":
+        return RgbdObservation(width, height, camera)
+    return StateObservation()

@@ -7,25 +7,18 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from slide_gym.envs.control import CONTROL_MODES, make_control
-from slide_gym.envs.observation import OBS_MODES, StateObservation
-from slide_gym.geometry import (
-    OBJECT_NAMES,
-    TABLE_NAMES,
-    ObjectShape,
-    TableShape,
-    get_object,
-    get_table,
-)
+from slide_gym.envs.cameras import RENDER_SIZE, Camera, image_size, render_frame
+from slide_gym.envs.control import make_control
+from slide_gym.envs.observation import OBS_MODES, make_observation
+from slide_gym.envs.reward import DenseReward, sparse_terms
+from slide_gym.envs.scene import RESET_OPTIONS, SceneChoice
+from slide_gym.geometry import ObjectShape, TableShape
 from slide_gym.robot import ARM_LOWER, ARM_UPPER, READY_ARM_Q, WamT42
 from slide_gym.sim import PhysicsParams, Simulation
 from slide_gym.task import (
-    PROCEDURAL,
     SceneState,
     TaskParams,
     TopSlideTask,
-    check_scene,
-    fit_procedural_object,
     sample_start_pose,
     validate_start_pose,
 )
@@ -48,8 +41,15 @@ class TopSlideEnv(gym.Env):
     to the joint limits). Entry 7 is the hand command: ``u = (a + 1) / 2`` in [0, 1] scales the
     tendon torque (0 = open, 1 = close). The finger joints are springs; they are not commanded.
 
+    ``control_mode="ee_delta"``: ``Box(-1, 1, (7,), float32)``. Entries 0-2 move the target
+    position of the ``fingertip_contact`` frame (world axes, times ``max_tip_step`` m), entries
+    3-5 turn its target orientation by a world-frame rotation vector (times ``max_rot_step``
+    rad; entry 5 is yaw about world z), entry 6 is the hand command. Damped least squares turns
+    the target pose into joint targets (joint limits, at most ``max_joint_step`` per joint);
+    an unreachable target is pulled back to the reached pose (``slide_gym.envs.control``).
+
     ## Observation Space
-    A ``Dict`` of float32 boxes:
+    A ``Dict`` of 1-D float32 boxes (``obs_mode="state"``, the default):
 
     | key | shape | meaning |
     |---|---|---|
@@ -59,23 +59,68 @@ class TopSlideEnv(gym.Env):
     | ``fingertip_pose`` | (7,) | world position and quaternion (xyzw) of ``fingertip_contact`` |
     | ``object_pose`` | (7,) | world position (bottom-face centroid) and quaternion of the object |
     | ``object_velocity`` | (6,) | linear and angular velocity of the object |
-    | ``object_outline`` | (32, 2) | object outline in its own frame (m), resampled by arc length |
-    | ``table_outline`` | (64, 2) | table outline in the world (m), resampled by arc length |
+    | ``object_outline`` | (64,) | 32 outline points in the object frame (m), ``x0, y0, x1, ...`` |
+    | ``object_holes`` | (128,) | up to 4 holes (largest first) x 16 points each, same layout |
+    | ``object_hole_mask`` | (4,) | 1 for each hole slot in use, 0 for the zero-padded ones |
+    | ``table_outline`` | (128,) | 64 table outline points in the world (m), same layout |
     | ``table_height`` | (1,) | world z of the table top |
 
-    The outline descriptors have a fixed size, so one policy can serve every shape. Values are
-    clipped to the declared bounds.
+    Outlines and holes are resampled evenly by arc length, counter-clockwise, from where the
+    ray from their centroid along +x leaves them, and flattened (``reshape(-1, 2)`` gives the
+    points back). The descriptors have a fixed size, so one policy can serve every shape.
+    Values are clipped to the declared bounds; Stable-Baselines3's ``check_env`` accepts the
+    space without warnings.
+
+    ``obs_mode="rgbd"`` adds four images (``render_width`` x ``render_height``, default
+    128 x 128), rendered headless with the TinyRenderer at every reset and step:
+
+    | key | shape | meaning |
+    |---|---|---|
+    | ``scene_rgb`` / ``wrist_rgb`` | (H, W, 3) uint8 | RGB of the scene / wrist camera |
+    | ``scene_depth`` / ``wrist_depth`` | (H, W, 1) float32 | depth along the optical axis (m) |
+
+    Depth lies in [0.01, 10] m (10 where nothing is in view). The scene camera is ``camera``
+    (see Arguments). The wrist camera is fixed to the palm, 6 cm to its side, looking along
+    the hand's approach axis between the fingers (60 degree field of view). SB3's
+    ``check_env`` takes any 3-D box for an image and warns that the depth images are not
+    uint8 in [0, 255]; they stay float metres so that mm-thin plates show.
 
     ## Rewards
-    ``reward_type="sparse"``: 1 on success, 0 otherwise. ``"dense"`` adds shaping (metres,
-    negative): minus the fingertip-to-object distance, minus the missing overhang
-    ``max(0, u* - u)``, and for ``goal="grasp"`` minus the missing lift height; plus 1 on success.
+    ``reward_type="sparse"``: 1 on success, 0 otherwise (falling off also pays 0: it ends the
+    episode, forfeiting any later success, so it is never better than staying).
+    ``"dense"`` (:class:`~slide_gym.envs.reward.DenseReward`) pays a sum of named terms,
+    reported every step (and at reset, for the reset state) in ``info["reward_terms"]``:
+
+    | term | value |
+    |---|---|
+    | ``reach`` | ``w * (1 - tanh(d / 0.1 m))``, d: fingertip contact to the object's top centre |
+    | ``progress`` | ``w * min(u / u*, 1)``, u: the overhang |
+    | ``lift`` | ``goal="grasp"``: ``0.5 * clip(clearance / lift_height, 0, 1)``; else 0 |
+    | ``success`` | ``+H`` on the step that succeeds |
+    | ``fall_off`` | ``-H`` on the step the object falls off (that step pays no shaping) |
+
+    with w = 0.5 (slide) or 0.25 (grasp), so a step's shaping lies in [0, 1], and H = 1200
+    steps, the longest registered time limit. Why it cannot be gamed: shaping is never
+    negative, so ending the episode forfeits future reward, and the penalty makes every episode
+    that drops the object score below 0, below any episode that does not; an episode that
+    succeeds scores at least H, above anything lingering short of success can collect within
+    H steps (or ``1 / (1 - gamma)`` discounted). Hence, for episodes of at most H steps,
+    ``return(fell off) < 0 <= return(neither) <= H <= return(success)``.
 
     ## Starting State
     The arm is at a ready pose with the hand pointing down above the table, fingers open and at
-    rest. The object lies flat at ``options["object_pose"] = (x, y, yaw)`` if given, otherwise at
-    a seeded random pose fully on the table, within reach, and not graspable. The world is
-    rebuilt on every reset, so a seed replays exactly.
+    rest. The object lies flat at a seeded random pose fully on the table, within reach, and not
+    graspable. The world is rebuilt on every reset, so a seed replays exactly; for a named
+    object and table the pose is :func:`slide_gym.task.seeded_start_pose` of the seed, the one
+    ``slide-gym plan --seed`` and ``slide-gym run --seed`` start from. ``reset(options=...)``
+    takes (all optional):
+
+    - ``object``, ``table``, ``scale``, ``thickness``: this episode's scene, as the arguments
+      below (the env's own stay for later resets); ``info["object"]`` and ``info["table"]``
+      name what was drawn;
+    - ``object_pose``: ``(x, y, yaw)`` of the object (m, rad), instead of the random pose;
+    - ``arm_qpos``: the arm's 7 joint angles (rad, within the joint limits) instead of the
+      ready pose.
 
     ## Episode End
     ``goal="slide"`` succeeds when the object rests in a graspable pose (overhang ``u >= u*``
@@ -94,11 +139,20 @@ class TopSlideEnv(gym.Env):
       holes: the plate of the reset seed, or of a seed drawn from the env's generator;
       shrunk if needed to fit the table; ``info["object"]`` names it).
     - ``table``: likewise with ``slide_gym.TABLE_NAMES``.
-    - ``scale``: object scale factor (> 0).
+    - ``scale``: object scale factor (> 0); ``thickness``: the object's thickness (m, 0.3 mm
+      to 5 cm) instead of its own.
     - ``goal``: ``"slide"`` or ``"grasp"``; ``reward_type``: ``"sparse"`` or ``"dense"``.
     - ``render_mode``: ``None``, ``"rgb_array"`` (headless TinyRenderer) or ``"human"`` (GUI).
+    - ``obs_mode``: ``"state"`` (default) or ``"rgbd"`` (see Observation Space);
+      ``render_width``, ``render_height``: image size in pixels of the ``"rgbd"`` images
+      (default 128 x 128) and of ``render()`` (default 480 x 360); ``camera``: the scene
+      camera of both, a :class:`~slide_gym.envs.cameras.Camera` or a dict of its fields
+      (``target`` (world, m), ``distance`` (m), ``yaw``, ``pitch``, ``fov`` (degrees);
+      default ``(0.45, 0, 0.15)``, 1.35, 60, -30, 45).
     - ``control_hz`` (default 20), ``physics_hz`` (default 240), ``max_joint_step`` (rad per
       control step, default 0.05), ``task_params``: a :class:`TaskParams`.
+    - ``control_mode``: ``"joint_delta"`` (default) or ``"ee_delta"`` (see Action Space), with
+      ``max_tip_step`` (m per control step, default 0.01) and ``max_rot_step`` (rad, 0.05).
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 20}
@@ -115,8 +169,14 @@ class TopSlideEnv(gym.Env):
         physics_hz: float = 240.0,
         max_joint_step: float = 0.05,
         task_params: TaskParams | None = None,
+        thickness: float | None = None,
         control_mode: str = "joint_delta",
         obs_mode: str = "state",
+        max_tip_step: float = 0.01,
+        max_rot_step: float = 0.05,
+        render_width: int | None = None,
+        render_height: int | None = None,
+        camera: Camera | dict[str, Any] | None = None,
     ):
         if goal not in ("slide", "grasp"):
             raise ValueError(f"goal must be 'slide' or 'grasp', got {goal!r}")
@@ -136,26 +196,18 @@ class TopSlideEnv(gym.Env):
             )
         if obs_mode not in OBS_MODES:
             raise ValueError(f"obs_mode must be one of {', '.join(OBS_MODES)}, got {obs_mode!r}")
-        if control_mode not in CONTROL_MODES:
-            raise ValueError(
-                f"control_mode must be one of {', '.join(CONTROL_MODES)}, got {control_mode!r}"
-            )
-        self.control = make_control(control_mode, max_joint_step)
+        self.control = make_control(control_mode, max_joint_step, max_tip_step, max_rot_step)
         self.control_mode, self.obs_mode = control_mode, obs_mode
         self.goal, self.reward_type, self.render_mode = goal, reward_type, render_mode
         self.n_substeps = int(round(substeps))
         self.max_joint_step = float(max_joint_step)
         self.metadata = {**self.metadata, "render_fps": control_hz}
+        self.camera = Camera.of(camera)
+        self.render_size = image_size(render_width, render_height, RENDER_SIZE)
+        self.observer = make_observation(obs_mode, render_width, render_height, self.camera)
 
-        self._object_spec = self._resolve(
-            "object", object, OBJECT_NAMES, lambda s: get_object(s, scale)
-        )
-        self._table_spec = self._resolve("table", table, TABLE_NAMES, get_table)
-        self.scale = float(scale)
-        objects = self._candidates(self._object_spec, OBJECT_NAMES, lambda n: get_object(n, scale))
-        for table_shape in self._candidates(self._table_spec, TABLE_NAMES, get_table):
-            for object_shape in objects:
-                check_scene(object_shape, table_shape)
+        self.scene = SceneChoice(object, table, scale, thickness)
+        self.scale = self.scene.scale
 
         self.task = TopSlideTask(task_params)
         self.sim = Simulation(render_mode, PhysicsParams(timestep=1.0 / physics_hz))
@@ -164,8 +216,9 @@ class TopSlideEnv(gym.Env):
         self._state: SceneState | None = None
         self._lift_steps = 0  # consecutive control steps the object has been held up
         self._is_success = False
+        self.dense_reward = DenseReward()
+        self._reward_terms: dict[str, float] = {}
 
-        self.observer = StateObservation()
         self.action_space = self.control.action_space
         self.observation_space = self.observer.space
 
@@ -175,16 +228,6 @@ class TopSlideEnv(gym.Env):
         return self.n_substeps * self.sim.settings.timestep
 
     # ------------------------------------------------------------------ set-up
-    @staticmethod
-    def _resolve(kind: str, spec: Any, names: tuple[str, ...], load: Any) -> Any:
-        """Validate at construction; keep ``"random"`` (a catalog shape per episode) and, for
-        objects, ``"procedural"`` (a generated plate per episode)."""
-        if isinstance(spec, str) and (spec == "random" or (kind, spec) == ("object", PROCEDURAL)):
-            return spec
-        if spec is None:
-            raise ValueError(f"{kind} must be one of {', '.join(names)}, 'random' or a .json path")
-        return load(spec)
-
     # --------------------------------------------------------------- gym API
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
@@ -196,18 +239,13 @@ class TopSlideEnv(gym.Env):
         super().reset(seed=seed)
         options = dict(options or {})
         p = self.task.params
-        unknown = set(options) - {"object_pose", "arm_qpos"}
+        unknown = set(options) - set(RESET_OPTIONS)
         if unknown:
             raise ValueError(
-                f"unknown reset options {sorted(unknown)}; allowed: object_pose, arm_qpos"
+                f"unknown reset options {sorted(unknown)}; allowed: {', '.join(RESET_OPTIONS)}"
             )
-        table = self._pick(self._table_spec, TABLE_NAMES, get_table)
-        if self._object_spec == PROCEDURAL:
-            plate_seed = seed if seed is not None else int(self.np_random.integers(2**31))
-            obj = fit_procedural_object(plate_seed, table, self.scale, p.start_margin)
-        else:
-            obj = self._pick(self._object_spec, OBJECT_NAMES, lambda s: get_object(s, self.scale))
-        check_scene(obj, table)
+        choice = self.scene.with_options(options)
+        obj, table = choice.draw(self.np_random, seed, p.start_margin)
         if options.get("object_pose") is not None:
             pose = validate_start_pose(obj, table, options["object_pose"])
         else:
@@ -237,18 +275,8 @@ class TopSlideEnv(gym.Env):
         self._state = self._read_state()
         self._lift_steps = 0
         self._is_success = self._success(self._state)
+        self._reward(self._state, self._is_success)  # the reset state's info["reward_terms"]
         return self._observation(), self._info(self._state)
-
-    @staticmethod
-    def _candidates(spec: Any, names: tuple[str, ...], load: Any) -> list[Any]:
-        if spec == PROCEDURAL:
-            return []  # drawn per episode, shrunk to fit the table
-        return [load(n) for n in names] if spec == "random" else [spec]
-
-    def _pick(self, spec: Any, names: tuple[str, ...], load: Any) -> Any:
-        if isinstance(spec, str) and spec == "random":
-            return load(names[int(self.np_random.integers(len(names)))])
-        return spec
 
     def step(
         self, action: np.ndarray
@@ -282,7 +310,7 @@ class TopSlideEnv(gym.Env):
 
     def render(self) -> np.ndarray | None:
         if self.render_mode == "rgb_array":
-            return self.sim.render()
+            return render_frame(self.sim.client, self.camera, *self.render_size)
         return None
 
     def close(self) -> None:
@@ -299,15 +327,16 @@ class TopSlideEnv(gym.Env):
         return self._lift_steps * self.dt >= hold - 1e-9
 
     def _reward(self, s: SceneState, success: bool) -> float:
+        """This step's reward: the sum of its terms, kept for ``info["reward_terms"]``."""
         if self.reward_type == "sparse":
-            return float(success)
-        p = self.task.params
-        tip, _ = self.robot.fingertip_pose()
-        obj_top = np.array([s.object_pose[0], s.object_pose[1], s.object_z])
-        reward = -float(np.linalg.norm(tip - obj_top)) - max(0.0, p.u_star - s.overhang_m)
-        if self.goal == "grasp":
-            reward -= max(0.0, p.lift_height - s.lift_m)
-        return reward + float(success)
+            self._reward_terms = sparse_terms(success)
+        else:
+            tip, _ = self.robot.fingertip_pose()
+            assert self.task.object is not None
+            self._reward_terms = self.dense_reward.terms(
+                self.goal, s, tip, self.task.object.thickness, self.task.params, success
+            )
+        return float(sum(self._reward_terms.values()))
 
     def _info(self, s: SceneState) -> dict[str, Any]:
         return {
@@ -323,6 +352,7 @@ class TopSlideEnv(gym.Env):
             "object_pose_2d": s.object_pose,
             "object": self.task.object.name,
             "table": self.task.table.name,
+            "reward_terms": dict(self._reward_terms),
         }
 
     def _observation(self) -> dict[str, np.ndarray]:

@@ -10,7 +10,7 @@ import numpy as np
 from slide_gym.geometry import ObjectShape, TableShape, get_table
 from slide_gym.planning.api import SlideParams, TopSlidePlanner, TopSlideProblem
 from slide_gym.planning.result import PlanResult, check_time_budget
-from slide_gym.task import TaskParams, check_scene, sample_start_pose, scene_object
+from slide_gym.task import check_scene, scene_object, seeded_start_pose
 
 
 def seeded_generators(seed: int) -> tuple[np.random.Generator, np.random.Generator]:
@@ -52,9 +52,9 @@ def plan_once(
     table_shape = get_table(table)
     shape = scene_object(obj, table_shape, seed=seed, scale=scale, thickness=thickness)
     check_scene(shape, table_shape)
-    pose_rng, plan_rng = seeded_generators(seed)
+    _, plan_rng = seeded_generators(seed)  # the pose as env.reset(seed=seed) draws it
     if object_pose is None:
-        object_pose = sample_start_pose(shape, table_shape, pose_rng, TaskParams().start_margin)
+        object_pose = seeded_start_pose(shape, table_shape, seed)
     problem = TopSlideProblem(shape, table_shape, object_pose, params)
     solver = TopSlidePlanner(problem, planner, plan_rng)
     try:

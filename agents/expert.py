@@ -410,7 +410,7 @@ class SlideGraspExpert:
         self._push(transfer_leg, self.hand)
         self._push(Segment("approach_grasp", transfer[-2:], 1.0, p.grasp_speed), self.hand)
         self._push(Segment("close", transfer[-1:], hand=1.0, hold_s=p.close_s), None)
-        lift = Segment("lift", lift_path, 1.0, p.lift_speed, hand=1.0, hold_s=1.0)
+        lift = Segment("lift", lift_path, 1.0, p.lift_speed, hand=1.0, hold_s=1.0, ramp_s=p.ramp_s)
         self._push(lift, self.hand)
         if self.planner is not None:
             self.planner.close()

@@ -69,7 +69,7 @@ class ExpertParams:
     """
 
     approach_speed: float = 1.0  # rad/s, free-space joint speed
-    ramp_s: float = 0.4  # s over which free-space legs and the slide speed up and slow down
+    ramp_s: float = 0.4  # s over which free-space legs, the slide and the lift speed up and down
     pre_contact_height: float = 0.03  # m above the press point before pressing
     press_speed: float = 0.02  # m/s fingertip speed while pressing
     press_hold_s: float = 0.3
@@ -83,7 +83,7 @@ class ExpertParams:
     grasp_speed: float = 0.04  # m/s on the final approach to the grasp
     close_s: float = 0.8  # hand closing time before lifting
     lift: float = 0.12  # m the grasp frame rises
-    lift_speed: float = 0.08  # m/s
+    lift_speed: float = 0.05  # m/s
     tip_gain: float = 0.3  # per control step, integral gain of the fingertip loop
     object_gain: float = 0.02  # per control step, integral gain of the plate-pose loop
     max_object_correction: float = 0.03  # m

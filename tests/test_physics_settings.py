@@ -138,7 +138,8 @@ def test_prisms_collide_at_their_real_size() -> None:
 @pytest.mark.parametrize("seed", [5, 7])
 def test_random_actions_never_send_the_arm_flying(seed: int) -> None:
     """With a random hand command the fingers close on nothing; pressed together by the
-    tendon they once made the arm diverge (these seeds: joint speeds past 20 rad/s)."""
+    tendon they once made the arm diverge (these seeds: joint speeds pinned at 20 rad/s;
+    now only the fingertips collide with each other, see ``WamT42.load``)."""
     env = TopSlideEnv(object="square", table="square")
     env.reset(seed=seed)
     rng = np.random.default_rng(seed)

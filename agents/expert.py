@@ -241,17 +241,27 @@ class SlideGraspExpert:
         )
         self.predicted = slid_object_pose(gamma_s, gamma_g, pose)
         self.report.object_predicted_pose = self.predicted.tolist()
-        self._queue_press_and_slide(result.start_config, result.path, pose)
+        why = self._queue_press_and_slide(result.start_config, result.path, pose)
+        if why is None:
+            return None
+        if self.report.replans >= self.params.max_replans:
+            return self._fail(why)
+        self.report.events.append(f"{why}: planning again")  # nothing has moved yet
+        self.report.replans += 1
+        return self._plan(obs)
 
     def _ik(self, chain: FastChain, t: np.ndarray, seed: np.ndarray) -> np.ndarray | None:
         return solve_ik(chain, IKTarget(t[:3, 3], t[:3, :3]), self.rng, seed[None])
 
-    def _queue_press_and_slide(self, q_s: np.ndarray, path: np.ndarray, pose: np.ndarray) -> None:
+    def _queue_press_and_slide(
+        self, q_s: np.ndarray, path: np.ndarray, pose: np.ndarray
+    ) -> str | None:
+        """Queue approach, press and slide for a plan; else why not (nothing queued)."""
         p, planner = self.params, self.planner
         assert planner is not None and self.q_cmd is not None
         down = rise(self.tip, q_s, (p.pre_contact_height,), True, self.rng)
         if down is None:
-            return self._fail("no IK solution above the press point")
+            return "no IK solution above the press point"
         down = down[::-1]  # from above the press point straight down to it
         q_pre = down[0]
         high = self.tip.forward(q_pre)
@@ -264,9 +274,9 @@ class SlideGraspExpert:
         if route is None:
             route, why = self._other_approach(q_pre, pose)
             if route is None:
-                return self._fail(f"no collision-free approach to the press point: {why}")
+                return f"no collision-free approach to the press point: {why}"
         if not planner.route_free(down, None, mode="sliding"):
-            return self._fail("the press move down to the plate would collide")
+            return "the press move down to the plate would collide"
         approach = Segment("approach", np.array(route), p.approach_speed, ramp_s=p.ramp_s)
         self._push(approach, self.tip)
         press = Segment("press", down, 1.0, p.press_speed, hold_s=p.press_hold_s)
@@ -279,6 +289,7 @@ class SlideGraspExpert:
         for step, gamma in zip(list(self.queue)[first:], gammas[1:], strict=True):
             step.object_xy = slid_object_pose(gammas[0], gamma, pose)[:2]
         self.q_slide_end = np.asarray(path[-1], dtype=float)
+        return None
 
     def _other_approach(
         self, q_pre: np.ndarray, pose: np.ndarray
@@ -340,8 +351,8 @@ class SlideGraspExpert:
         """Raise the fingertip off the plate, still holding its xy (the finger unloads)."""
         assert self.q_cmd is not None
         q_end = self.q_slide_end  # the nominal (uncorrected) end of the slide
-        h = self.params.lift_off_height  # near a joint limit, half of it still unloads the finger
-        line = rise(self.tip, q_end, (h, h / 2), False, self.rng)
+        h = self.params.lift_off_height  # near a joint limit, less still unloads the finger
+        line = rise(self.tip, q_end, (h, h / 2, h / 4), False, self.rng)
         if line is None:
             return self._fail("no IK solution to lift the fingertip off the plate")
         assert self.planner is not None

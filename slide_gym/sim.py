@@ -293,30 +293,6 @@ class Simulation:
     def count_constraints(self) -> int:
         return self.client.getNumConstraints()
 
-    # ---------------------------------------------------------------- render
-    def render(
-        self,
-        width: int = 480,
-        height: int = 360,
-        target: Sequence[float] = (0.45, 0.0, 0.15),
-        distance: float = 1.35,
-        yaw: float = 60.0,
-        pitch: float = -30.0,
-    ) -> np.ndarray:
-        """An RGB image (height, width, 3) uint8 from the TinyRenderer (works headless)."""
-        for what, value in (("width", width), ("height", height)):
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-                raise ValueError(f"image {what} must be a whole number of pixels, got {value!r}")
-            if not 1 <= value <= MAX_IMAGE_SIDE:
-                raise ValueError(f"image {what} must be 1..{MAX_IMAGE_SIDE} pixels, got {value}")
-        c = self.client
-        view = c.computeViewMatrixFromYawPitchRoll(list(target), distance, yaw, pitch, 0.0, 2)
-        proj = c.computeProjectionMatrixFOV(45.0, width / height, 0.05, 10.0)
-        _, _, rgba, _, _ = c.getCameraImage(
-            width, height, view, proj, renderer=pb.ER_TINY_RENDERER, shadow=1
-        )
-        return np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3].copy()
-
 
 def check_render_mode(render_mode: str | None) -> None:
     """ValueError unless ``render_mode`` is None, ``"rgb_array"``, or ``"human"`` with a

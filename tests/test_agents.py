@@ -167,7 +167,8 @@ def test_expert_lifts_the_object_end_to_end(e_episode):
     # Y on the square table, seed 0, is a known miss: the hand closes without holding the
     # plate (it lifts it when the fingertips do not collide with each other; cards need them
     # to: WamT42.load).
-    ("obj", "table", "seed"), [("square", "long", 1), ("irregular", "round", 0), ("Y", "long", 0)]
+    ("obj", "table", "seed"),
+    [("square", "long", 1), ("irregular", "round", 0), ("Y", "long", 0)],
 )
 def test_expert_lifts_other_shapes_on_other_tables(episode, obj, table, seed):
     r = episode(obj, table, seed)

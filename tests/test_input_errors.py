@@ -222,13 +222,9 @@ def test_human_render_mode_without_a_display(monkeypatch: pytest.MonkeyPatch) ->
 
 
 def test_render_size_is_checked() -> None:
-    sim = Simulation()
-    try:
-        for width, height in ((0, 10), (10, -1), (10.5, 10), (10**6, 10)):
-            with pytest.raises(ValueError, match="image (width|height)"):
-                sim.render(width=width, height=height)
-    finally:
-        sim.close()
+    for width, height in ((0, 10), (10, -1), (10.5, 10), (10**6, 10)):
+        with pytest.raises(ValueError, match="render_(width|height)"):
+            TopSlideEnv(render_mode="rgb_array", render_width=width, render_height=height)
 
 
 # ------------------------------------------------------------------ the command line

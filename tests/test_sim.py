@@ -51,6 +51,7 @@ _MANY_PIECES = textwrap.dedent(
     """
     import json
     import numpy as np
+    from slide_gym.envs.cameras import Camera, render_frame
     from slide_gym.sim import Simulation
 
     sim = Simulation("rgb_array")
@@ -66,7 +67,7 @@ _MANY_PIECES = textwrap.dedent(
         "children": len(c.getCollisionShapeData(body, -1)),
         "last_piece_hit": hit(0.193, 0.143),
         "gap_hit": hit(0.098, 0.073),
-        "image": list(sim.render(64, 48).shape),
+        "image": list(render_frame(c, Camera(), 64, 48).shape),
     }))
     sim.close()
     """

@@ -62,23 +62,26 @@ def _cmd_shapes(args: argparse.Namespace) -> int:
 
 
 def _cmd_render(args: argparse.Namespace) -> int:
-    from slide_gym.sim import MAX_IMAGE_SIDE
+    from slide_gym.envs.cameras import check_size
 
     _check_scene(args, ENV_SCENE)
     check_output(args.out, IMAGE_SUFFIXES, "--out")
-    for option, value in (("--width", args.width), ("--height", args.height)):
-        if not 1 <= value <= MAX_IMAGE_SIDE:
-            raise ValueError(f"{option} must be 1..{MAX_IMAGE_SIDE} pixels, got {value}")
+    width, height = check_size("--width", args.width), check_size("--height", args.height)
     import imageio.v3 as iio
 
     from slide_gym.envs.top_slide import TopSlideEnv
 
     env = TopSlideEnv(
-        object=args.object, table=args.table, scale=args.scale, render_mode="rgb_array"
+        object=args.object,
+        table=args.table,
+        scale=args.scale,
+        render_mode="rgb_array",
+        render_width=width,
+        render_height=height,
     )
     try:
         env.reset(seed=args.seed)
-        frame = env.sim.render(width=args.width, height=args.height)
+        frame = env.render()
     finally:
         env.close()
     iio.imwrite(args.out, frame)

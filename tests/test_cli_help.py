@@ -25,6 +25,7 @@ COMMANDS = [
     ["bench", "env"],
     ["bench", "plan"],
     ["bench", "execute"],
+    ["experiment"],
 ]
 LONG_FLOAT = re.compile(r"\d\.\d{5,}")
 """A float printed with more than 4 decimals."""

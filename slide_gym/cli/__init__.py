@@ -1,7 +1,8 @@
 """The ``slide-gym`` command. Bad input prints one line to stderr and exits with code 2.
 
 Each group of subcommands registers itself from its own module (:mod:`.commands`,
-:mod:`.bench`); the heavy imports happen inside the handlers, so ``--help`` stays fast.
+:mod:`.bench`, :mod:`.experiment`); the heavy imports happen inside the handlers, so ``--help``
+stays fast.
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ import sys
 from collections.abc import Sequence
 
 from slide_gym import __version__
-from slide_gym.cli import bench, commands
+from slide_gym.cli import bench, commands, experiment
 from slide_gym.cli.args import HelpFormatter, check_seed, examples_epilog
 
 EXAMPLES = (
@@ -35,6 +36,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
     commands.add_parsers(sub)
     bench.add_parsers(sub)
+    experiment.add_parsers(sub)
     return parser
 
 

@@ -1,0 +1,83 @@
+"""``slide-gym experiment NAME``: the paper's experiments as named, resumable runs."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+from slide_gym.cli.args import add_command, choice
+
+ALL = "all"
+"""Runs every implemented experiment in turn."""
+
+
+def _cmd_experiment(args: argparse.Namespace) -> int:
+    from slide_gym.experiments import run_experiments
+
+    summaries = run_experiments(
+        [args.name], quick=args.quick, workers=args.workers, backend=args.backend, out=args.out
+    )
+    print(json.dumps(summaries, indent=2))
+    return 0
+
+
+def add_parsers(sub: Any) -> None:
+    """``slide-gym experiment NAME [--quick] [--workers W] [--backend local] [--out DIR]``."""
+    from slide_gym.experiments.run import BACKENDS, OUT
+    from slide_gym.experiments.specs import EXPERIMENTS, LATER, QUICK_BUDGET, TIME_BUDGET
+
+    names = (*EXPERIMENTS, ALL, *LATER)
+    p = add_command(
+        sub,
+        "experiment",
+        "the paper's experiments (fig10, fig11, fig12) as resumable runs",
+        "Run the planning queries of one of the paper's experiments in parallel and print a "
+        "summary as JSON. fig10: 4 tables x 9 objects (5 paper objects, letters Y A L E) x 50 "
+        "start poses at scales 1 and 0.5; fig11: square table, 5 objects x 100 poses with "
+        "dZ* = 0, 0.5, 2 cm (dZ- = 0.5 cm), and cbirrt, cbirrt2 at 2 cm on the same problems; "
+        "fig12: 5 objects x 20 poses at N* = 1, 10, 100, 1000, 10000; "
+        f"{TIME_BUDGET:g} s per query. Each query is one JSON line, written as it finishes, "
+        "to DIR/NAME-VERSION.jsonl (VERSION: the code version, package version + git commit "
+        "+ dirty.HASH for uncommitted changes): a re-run of the same code skips finished "
+        "queries, so Ctrl-C and resume lose nothing; other code writes a new file and never "
+        "reuses another version's rows. relaxation and agents come later.",
+        [
+            "slide-gym experiment all --quick",
+            "slide-gym experiment fig11 --workers 2 --out results/experiments",
+        ],
+    )
+    p.add_argument(
+        "name",
+        type=choice(names, "experiment"),
+        choices=names,
+        metavar="NAME",
+        help=f"one of {', '.join(names)} ({ALL}: {', '.join(EXPERIMENTS)} in turn)",
+    )
+    p.add_argument(
+        "--quick",
+        action="store_true",
+        help=f"a smoke test: square table, 2 objects, 1 start pose, {QUICK_BUDGET:g} s per "
+        "query, into DIR/NAME-quick-VERSION.jsonl",
+    )
+    p.add_argument(
+        "--workers", type=int, metavar="N", help="worker processes (default: one per core)"
+    )
+    p.add_argument(
+        "--backend",
+        type=choice(BACKENDS, "backend"),
+        choices=BACKENDS,
+        default="local",
+        metavar="NAME",
+        help=f"where queries run, one of {', '.join(BACKENDS)} (local: a process pool here; "
+        "ray comes with the datasets issue)",
+    )
+    p.add_argument(
+        "--out",
+        type=Path,
+        default=OUT,
+        metavar="DIR",
+        help="results folder: one JSONL file per experiment and code version",
+    )
+    p.set_defaults(func=_cmd_experiment)

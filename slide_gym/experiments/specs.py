@@ -1,0 +1,141 @@
+"""The paper's experiments as lists of planning cases, at full size and at ``--quick`` size.
+
+A case is one planning query: a dict of JSON values (see :func:`case`) that is also its
+identity when a run resumes (:func:`slide_gym.bench.jobs.case_key`); it carries the code
+version, so finished cases of other code never count as done.
+
+Contact depth: the paper's dZ- = 0.5 cm is the least depth of the fingertip contact below the
+plate top and dZ* the width of the allowed band, so the planner's
+:attr:`~slide_gym.planning.params.SlideParams.dz` is ``(dZ-, dZ- + dZ*)``: dZ* = 0 gives
+(0.005, 0.005), 0.5 cm (0.005, 0.01) and 2 cm the default (0.005, 0.025).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+from slide_gym.bench.jobs import Case
+from slide_gym.bench.plan import OBJECTS as PAPER_OBJECTS
+from slide_gym.geometry import TABLE_NAMES
+
+LETTERS = ("Y", "A", "L", "E")
+"""fig10's further group of objects."""
+DZ_MINUS = 0.005
+"""dZ- (m): the least contact depth below the plate top."""
+DZ_STARS = (0.0, 0.005, 0.02)
+"""fig11's dZ* (m): the width of the contact-depth band."""
+DZ_STAR = 0.02
+"""dZ* (m) of fig10, fig12 and the baselines of fig11 (the paper's default)."""
+N_STAR = 100
+"""N* of every experiment but fig12 (the paper's default)."""
+N_STARS = (1, 10, 100, 1000, 10000)
+"""fig12's N*."""
+BASELINES = ("cbirrt", "cbirrt2")
+"""fig11's other planners, at dZ* = :data:`DZ_STAR` on the same problems."""
+TABLE = "square"
+"""The table of fig11 and fig12."""
+SCALES = (1.0, 0.5)
+"""fig10's object size factors."""
+TIME_BUDGET = 60.0
+"""Planning seconds per query (the paper's)."""
+QUICK_BUDGET = 2.0
+"""Planning seconds per query with ``--quick``."""
+QUICK_OBJECTS = ("square", "L")
+"""``--quick``: one paper object and one letter, one start pose each, square table only."""
+QUICK_N_STARS = (1, 100)
+"""fig12's N* with ``--quick``."""
+POSES = {"fig10": 50, "fig11": 100, "fig12": 20}
+"""Random start poses per object (seeds 0..n-1) at full size; the pose is the outer loop,
+so an interrupted run holds a balanced share of every condition. fig12's 20 (the issue gives
+none): 5 N* x 5 objects x 20 = 500 queries, a fifth of fig11."""
+EXPERIMENTS = ("fig10", "fig11", "fig12")
+"""The experiments implemented so far; ``all`` runs them in this order."""
+LATER = ("relaxation", "agents")
+"""Experiments of the issue still to come."""
+
+
+def dz_band(dz_star: float) -> list[float]:
+    """The planner's contact-depth band ``[dZ-, dZ- + dZ*]`` (m) for width ``dz_star``."""
+    return [DZ_MINUS, round(DZ_MINUS + dz_star, 6)]
+
+
+def case(
+    experiment: str,
+    obj: str,
+    table: str,
+    seed: int,
+    version: str,
+    *,
+    scale: float = 1.0,
+    planner: str = "regions",
+    dz_star: float = DZ_STAR,
+    n_star: int = N_STAR,
+    time_budget: float = TIME_BUDGET,
+) -> Case:
+    """One planning query of ``experiment`` (seed: the random start pose and planner stream)."""
+    return {
+        "experiment": experiment,
+        "object": obj,
+        "table": table,
+        "scale": scale,
+        "planner": planner,
+        "dz": dz_band(dz_star),
+        "n_star": n_star,
+        "seed": seed,
+        "time_budget": time_budget,
+        "code_version": version,
+    }
+
+
+def _fig10(version: str, objects: Sequence[str], tables: Sequence[str], **kw: Any) -> list[Case]:
+    """Every scale x table x object (paper objects, then the letters) per pose."""
+    return [
+        case("fig10", o, t, i, version, scale=s, time_budget=kw["time_budget"])
+        for i in range(kw["poses"])
+        for s in SCALES
+        for t in tables
+        for o in objects
+    ]
+
+
+def _fig11(version: str, objects: Sequence[str], tables: Sequence[str], **kw: Any) -> list[Case]:
+    """regions at each dZ*, then the baselines at 2 cm, on the same problems (seeds)."""
+    runs = [("regions", d) for d in DZ_STARS] + [(p, DZ_STAR) for p in BASELINES]
+    return [
+        case("fig11", o, TABLE, i, version, planner=p, dz_star=d, time_budget=kw["time_budget"])
+        for i in range(kw["poses"])
+        for o in objects
+        for p, d in runs
+    ]
+
+
+def _fig12(version: str, objects: Sequence[str], tables: Sequence[str], **kw: Any) -> list[Case]:
+    """regions at each N*, dZ* = 2 cm."""
+    return [
+        case("fig12", o, TABLE, i, version, n_star=n, time_budget=kw["time_budget"])
+        for i in range(kw["poses"])
+        for o in objects
+        for n in kw.get("n_stars", N_STARS)
+    ]
+
+
+_BUILDERS = {"fig10": _fig10, "fig11": _fig11, "fig12": _fig12}
+
+
+def experiment_cases(name: str, version: str, quick: bool = False) -> list[Case]:
+    """The cases of experiment ``name`` (one of :data:`EXPERIMENTS`), stamped ``version``.
+
+    Full size: fig10 2 scales x 4 tables x 9 objects x 50 poses (3600); fig11 5 objects x 100
+    poses x (3 dZ* + 2 baselines) (2500); fig12 5 N* x 5 objects x 20 poses (500); 60 s each.
+    ``quick``: the square table, objects :data:`QUICK_OBJECTS`, one pose, 2 s, fig12 at
+    N* = 1 and 100 only (fig10 4, fig11 10, fig12 4 queries: a CI smoke test).
+    """
+    if name not in _BUILDERS:
+        raise ValueError(f"unknown experiment {name!r}; implemented: {', '.join(EXPERIMENTS)}")
+    if quick:
+        kw: dict[str, Any] = {"poses": 1, "time_budget": QUICK_BUDGET, "n_stars": QUICK_N_STARS}
+        return _BUILDERS[name](version, QUICK_OBJECTS, (TABLE,), **kw)
+    objects = PAPER_OBJECTS + LETTERS if name == "fig10" else PAPER_OBJECTS
+    kw = {"poses": POSES[name], "time_budget": TIME_BUDGET}
+    return _BUILDERS[name](version, objects, TABLE_NAMES, **kw)

@@ -1,0 +1,177 @@
+"""``slide-gym experiment``: the experiments' cases at full and quick size, rows written per
+query with the code version, resume, one file per code version, and the command's errors."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from slide_gym import __version__
+from slide_gym.cli import main
+from slide_gym.experiments import run, specs, version
+from slide_gym.experiments.specs import experiment_cases
+
+ROW_KEYS = {
+    "status", "reason", "planning_time_s", "object_start_pose", "object_goal_pose", "stats",
+    "parameters", "experiment", "object", "table", "scale", "planner", "dz", "n_star", "seed",
+    "time_budget", "code_version",
+}  # fmt: skip
+PAPER = {"square", "circle", "triangle", "crescent", "irregular"}
+DZ_2CM = [0.005, 0.025]
+
+
+def _values(cases: list[dict[str, Any]], key: str) -> set[Any]:
+    return {json.dumps(c[key]) if isinstance(c[key], list) else c[key] for c in cases}
+
+
+def test_full_sizes_follow_the_issue() -> None:
+    fig10, fig11, fig12 = (experiment_cases(n, "v") for n in ("fig10", "fig11", "fig12"))
+    assert (len(fig10), len(fig11), len(fig12)) == (3600, 2500, 500)
+    for cases in (fig10, fig11, fig12):
+        assert _values(cases, "time_budget") == {60.0} and _values(cases, "code_version") == {"v"}
+    assert _values(fig10, "object") == PAPER | {"Y", "A", "L", "E"}
+    assert _values(fig10, "table") == {"square", "round", "long", "triangle"}
+    assert _values(fig10, "scale") == {1.0, 0.5} and _values(fig10, "seed") == set(range(50))
+    assert _values(fig10, "dz") == {json.dumps(DZ_2CM)} and _values(fig10, "n_star") == {100}
+    problems: dict[tuple[str, str], set[tuple[str, int]]] = {}
+    for c in fig11:
+        condition = (c["planner"], json.dumps(c["dz"]))
+        problems.setdefault(condition, set()).add((c["object"], c["seed"]))
+    same = {(o, s) for o in PAPER for s in range(100)}
+    assert problems == {
+        ("regions", "[0.005, 0.005]"): same,  # dZ* = 0
+        ("regions", "[0.005, 0.01]"): same,  # dZ* = 0.5 cm
+        ("regions", "[0.005, 0.025]"): same,  # dZ* = 2 cm
+        ("cbirrt", "[0.005, 0.025]"): same,
+        ("cbirrt2", "[0.005, 0.025]"): same,
+    }
+    assert _values(fig11, "table") == _values(fig12, "table") == {"square"}
+    assert _values(fig12, "n_star") == {1, 10, 100, 1000, 10000}
+    assert _values(fig12, "dz") == {json.dumps(DZ_2CM)} and _values(fig12, "seed") == set(range(20))
+    assert fig10[0]["seed"] == 0 and fig10[-1]["seed"] == 49  # the pose is the outer loop
+
+
+def test_quick_sizes_are_a_smoke_test() -> None:
+    sizes = {n: len(experiment_cases(n, "v", quick=True)) for n in specs.EXPERIMENTS}
+    assert sizes == {"fig10": 4, "fig11": 10, "fig12": 4}
+    for name in specs.EXPERIMENTS:
+        cases = experiment_cases(name, "v", quick=True)
+        assert _values(cases, "time_budget") == {2.0} and _values(cases, "table") == {"square"}
+        assert _values(cases, "seed") == {0}
+
+
+def test_fig11_quick_writes_a_row_per_query_and_resumes(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    summary = run.run_experiment("fig11", quick=True, workers=1, out=tmp_path)
+    stamp = version.code_version()
+    path = tmp_path / f"fig11-quick-{stamp}.jsonl"
+    assert summary["file"] == str(path) and summary["runs"] == summary["of"] == 10
+    rows = [json.loads(line) for line in path.read_text().splitlines()]
+    assert len(rows) == 10 and [p.name for p in tmp_path.iterdir()] == [path.name]
+    for row in rows:
+        assert row.keys() >= ROW_KEYS and not {"path", "transfer_path"} & row.keys()
+        assert row["code_version"] == row["case"]["code_version"] == stamp
+        assert row["experiment"] == "fig11"
+        assert row["status"] in {"solved", "timeout", "infeasible"}
+    assert {r["planner"] for r in rows} == {"regions", "cbirrt", "cbirrt2"}
+
+    def refuse(case: dict[str, Any]) -> dict[str, Any]:
+        raise AssertionError("a finished query ran again")
+
+    monkeypatch.setattr(run, "experiment_case", refuse)
+    again = run.run_experiment("fig11", quick=True, workers=1, out=tmp_path)
+    assert again["runs"] == 10 and len(path.read_text().splitlines()) == 10
+
+
+def _fake_case(case: dict[str, Any]) -> dict[str, Any]:
+    return {"status": "solved", "planning_time_s": 0.1, **case}
+
+
+def test_another_code_version_gets_its_own_file(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.setattr(run, "experiment_case", _fake_case)
+    monkeypatch.setattr(run, "code_version", lambda: "1.0+aaa")
+    old = Path(run.run_experiment("fig12", quick=True, workers=1, out=tmp_path)["file"])
+    old_text = old.read_text()
+    monkeypatch.setattr(run, "code_version", lambda: "1.0+bbb")
+    new = run.run_experiment("fig12", quick=True, workers=1, out=tmp_path)
+    assert new["file"] == str(tmp_path / "fig12-quick-1.0+bbb.jsonl") and new["runs"] == 4
+    assert "4 to run" in capsys.readouterr().err  # nothing of 1.0+aaa was reused ...
+    run.run_experiment("fig12", quick=True, workers=1, out=tmp_path)
+    assert f"not reusing {old}" in capsys.readouterr().err  # ... and the run says so
+    assert old.read_text() == old_text
+    with Path(new["file"]).open("a") as f:  # rows of another version, copied in by hand
+        f.write(old_text.splitlines()[0] + "\n")
+    with pytest.raises(ValueError, match=r"code version '1.0\+aaa', not '1.0\+bbb'"):
+        run.run_experiment("fig12", quick=True, workers=1, out=tmp_path)
+
+
+def test_code_version() -> None:
+    stamp = version.code_version()
+    assert stamp == __version__ or stamp.startswith(f"{__version__}+")
+
+
+def test_code_version_outside_a_checkout(monkeypatch: pytest.MonkeyPatch) -> None:
+    def no_git(*args: Any) -> str:
+        raise FileNotFoundError("git")
+
+    monkeypatch.setattr(version, "_git", no_git)
+    version.code_version.cache_clear()
+    try:
+        assert version.code_version() == __version__
+    finally:
+        version.code_version.cache_clear()
+
+
+def test_a_scene_the_planner_refuses_is_a_row() -> None:
+    case = specs.case("fig10", "no-such-plate", "square", 0, "v", time_budget=1.0)
+    row = run.experiment_case(case)
+    assert row["status"] == run.REJECTED and "no-such-plate" in row["reason"]
+    assert row["code_version"] == "v"
+
+
+def _refuse(*args: object, **kwargs: object) -> Any:
+    raise AssertionError("the work started although the input was bad")
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["nope"], "unknown experiment 'nope'; choose from fig10, fig11, fig12, all, "),
+        (["fig10", "--backend", "ray"], "--backend ray is not available yet: it comes with the "),
+        (["relaxation"], "'relaxation' is not implemented yet; run one of fig10, fig11, fig12"),
+        (["all", "--workers", "0"], "--workers must be >= 1"),
+    ],
+)
+def test_bad_input_exits_2_before_any_work(
+    argv: list[str],
+    message: str,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    tmp_path: Path,
+) -> None:
+    monkeypatch.setattr(run, "run_cases", _refuse)
+    try:
+        code = main(["experiment", *argv, "--out", str(tmp_path)])
+    except SystemExit as exit_:  # argparse's usage errors
+        code = exit_.code
+    assert code == 2
+    err = " ".join(capsys.readouterr().err.split())
+    assert message in err
+    assert not list(tmp_path.iterdir())
+
+
+def test_file_names_keep_sizes_and_versions_apart(tmp_path: Path) -> None:
+    assert run.results_file(tmp_path, "fig10", "1.0+a") == tmp_path / "fig10-1.0+a.jsonl"
+    for name in ("fig10-1.0+a", "fig10-1.0+b", "fig10-quick-1.0+b", "fig11-1.0+b"):
+        (tmp_path / f"{name}.jsonl").touch()
+    others = run.other_versions(tmp_path, "fig10", "1.0+b")
+    assert others == [tmp_path / "fig10-1.0+a.jsonl"]  # not the quick run, nor fig11
+    assert run.other_versions(tmp_path, "fig10", "1.0+a", quick=True) == [
+        tmp_path / "fig10-quick-1.0+b.jsonl"
+    ]

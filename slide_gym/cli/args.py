@@ -78,6 +78,22 @@ def choice(choices: Sequence[str], what: str) -> Callable[[str], str]:
     return parse
 
 
+def add_choice(
+    p: argparse.ArgumentParser,
+    flag: str,
+    choices: Sequence[str],
+    what: str,
+    help: str,  # noqa: A002 - argparse's name
+    default: str | None = None,
+    metavar: str | None = None,
+) -> None:
+    """An option (or positional) taking one of ``choices``, with :func:`choice`'s hint."""
+    kwargs = {"default": default} if flag.startswith("-") else {}
+    p.add_argument(
+        flag, type=choice(choices, what), choices=choices, metavar=metavar, help=help, **kwargs
+    )
+
+
 def parse_floats(text: str, n: int, what: str) -> tuple[float, ...]:
     """``n`` comma-separated numbers, or a ValueError naming the option ``what``."""
     try:

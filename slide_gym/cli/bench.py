@@ -10,8 +10,8 @@ from typing import Any
 from slide_gym import DICT_ENV_IDS
 from slide_gym.cli.args import (
     HelpFormatter,
+    add_choice,
     add_command,
-    choice,
     examples_epilog,
     parse_floats,
     parse_names,
@@ -222,13 +222,7 @@ def _add_execute(what: Any) -> None:
         "same one on two tables",
     )
     p.add_argument("--tables", default=tables, metavar="NAMES", help="comma-separated tables")
-    p.add_argument(
-        "--planner",
-        type=choice(PLANNERS, "planner"),
-        choices=PLANNERS,
-        default=execute.PLANNER,
-        help="the tree search",
-    )
+    add_choice(p, "--planner", PLANNERS, "planner", "the tree search", execute.PLANNER)
     budget_help = "per episode, first plan and replans together"
     _add_trials(p, execute.TRIALS, "episodes per scene", execute.TIME_BUDGET, budget_help)
     p.add_argument("--scale", type=float, default=1.0, metavar="FACTOR", help="object size factor")
@@ -238,15 +232,11 @@ def _add_execute(what: Any) -> None:
         metavar="M",
         help="every plate's thickness in m (default: each object's own)",
     )
-    p.add_argument(
-        "--env",
-        type=choice(DICT_ENV_IDS, "environment"),
-        choices=DICT_ENV_IDS,
-        default=execute.ENV_ID,
-        metavar="ID",
-        help=f"environment, one of {', '.join(DICT_ENV_IDS)} (TopSlide-v0: the slide alone, "
-        "success = left graspable)",
+    env_help = (
+        f"environment, one of {', '.join(DICT_ENV_IDS)} (TopSlide-v0: the slide alone, "
+        "success = left graspable)"
     )
+    add_choice(p, "--env", DICT_ENV_IDS, "environment", env_help, execute.ENV_ID, "ID")
     _add_jobs(p, execute.OUT, "first episode seed (trial k uses SEED + k)")
     p.add_argument("--markdown", action="store_true", help="print markdown tables (default: JSON)")
     p.set_defaults(func=_cmd_bench_execute)

@@ -10,7 +10,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from slide_gym import DICT_ENV_IDS
-from slide_gym.cli.args import add_command, check_name, check_output, choice, parse_floats
+from slide_gym.cli.args import (
+    add_choice,
+    add_command,
+    check_name,
+    check_output,
+    parse_floats,
+)
 from slide_gym.cli.text import demo_text, plan_text, run_text
 from slide_gym.geometry import OBJECT_NAMES, TABLE_NAMES
 from slide_gym.planning.search import PLANNERS
@@ -199,13 +205,7 @@ def _thickness(p: argparse.ArgumentParser) -> None:
 
 def _planning(p: argparse.ArgumentParser, budget_help: str) -> None:
     """``--planner`` and ``--time-budget``."""
-    p.add_argument(
-        "--planner",
-        type=choice(PLANNERS, "planner"),
-        choices=PLANNERS,
-        default="regions",
-        help="the tree search",
-    )
+    add_choice(p, "--planner", PLANNERS, "planner", "the tree search", "regions")
     p.add_argument(
         "--time-budget",
         type=float,
@@ -315,13 +315,7 @@ def add_parsers(sub: Any) -> None:
     _object_pose(p)
     _planning(p, "per query")
     p.add_argument("--video", type=Path, metavar="FILE", help="also write an MP4 or GIF here")
-    p.add_argument(
-        "--env",
-        type=choice(DICT_ENV_IDS, "environment"),
-        choices=DICT_ENV_IDS,
-        default="SlideGym/TopSlideGrasp-v0",
-        metavar="ID",
-        help=f"environment, one of {', '.join(DICT_ENV_IDS)}",
-    )
+    env_help = f"environment, one of {', '.join(DICT_ENV_IDS)}"
+    add_choice(p, "--env", DICT_ENV_IDS, "environment", env_help, "SlideGym/TopSlideGrasp-v0", "ID")
     _json_flag(p, "one JSON object, full precision")
     p.set_defaults(func=_cmd_run)

@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from slide_gym.cli.args import add_command, choice
+from slide_gym.cli.args import add_choice, add_command
 
 ALL = "all"
 """Runs every implemented experiment in turn."""
@@ -48,13 +48,8 @@ def add_parsers(sub: Any) -> None:
             "slide-gym experiment fig11 --workers 2 --out results/experiments",
         ],
     )
-    p.add_argument(
-        "name",
-        type=choice(names, "experiment"),
-        choices=names,
-        metavar="NAME",
-        help=f"one of {', '.join(names)} ({ALL}: {', '.join(EXPERIMENTS)} in turn)",
-    )
+    name_help = f"one of {', '.join(names)} ({ALL}: {', '.join(EXPERIMENTS)} in turn)"
+    add_choice(p, "name", names, "experiment", name_help, metavar="NAME")
     p.add_argument(
         "--quick",
         action="store_true",
@@ -64,15 +59,11 @@ def add_parsers(sub: Any) -> None:
     p.add_argument(
         "--workers", type=int, metavar="N", help="worker processes (default: one per core)"
     )
-    p.add_argument(
-        "--backend",
-        type=choice(BACKENDS, "backend"),
-        choices=BACKENDS,
-        default="local",
-        metavar="NAME",
-        help=f"where queries run, one of {', '.join(BACKENDS)} (local: a process pool here; "
-        "ray comes with the datasets issue)",
+    backend_help = (
+        f"where queries run, one of {', '.join(BACKENDS)} (local: a process pool here; "
+        "ray comes with the datasets issue)"
     )
+    add_choice(p, "--backend", BACKENDS, "backend", backend_help, "local", "NAME")
     p.add_argument(
         "--out",
         type=Path,

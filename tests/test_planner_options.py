@@ -15,6 +15,7 @@ from slide_gym.planning.api import SlideParams, TopSlideProblem
 from slide_gym.planning.result import SearchParams
 from slide_gym.planning.search import SearchFunctions
 from slide_gym.planning.smoothing import path_length, shortcut_path
+from slide_gym.robot.kinematics import fingertip_chain
 
 
 def _free_space(blocked: shapely.Geometry | None = None) -> SearchFunctions:
@@ -53,7 +54,7 @@ def test_shortcut_never_crosses_an_obstacle():
 @pytest.mark.parametrize(
     ("field", "value"),
     [("press_edge_margin", -0.01), ("max_rotation", 0.0), ("shortcut_attempts", -1),
-     ("centroid_margin", math.nan), ("press_radius", 0.0)],
+     ("centroid_margin", math.nan), ("press_radius", 0.0), ("tip_edge_margin", -0.01)],
 )  # fmt: skip
 def test_new_slide_params_are_validated(field, value):
     with pytest.raises(ValueError, match=field):
@@ -96,3 +97,18 @@ def test_plate_turn_limit_holds_in_solutions(solve_top_slide):
     assert result.solved, result.reason
     turn = result.extra["object_goal_pose"][2] - 0.3
     assert abs((turn + math.pi) % (2 * math.pi) - math.pi) <= 0.3 + 1e-9
+
+
+def test_tip_edge_margin_keeps_contacts_and_goals_inside_the_edge(solve_top_slide):
+    obj, table = get_object("square"), get_table("square")
+    pose = (0.62, 0.05, 0.3)
+    problem = TopSlideProblem(obj, table, pose, SlideParams(tip_edge_margin=0.02))
+    assert problem.contact_area.equals(table.polygon.buffer(-0.02))
+    assert problem.goal_band.difference(problem.contact_area).area < 1e-12
+    with pytest.raises(ValueError, match="tip_edge_margin"):
+        TopSlideProblem(obj, table, pose, SlideParams(tip_edge_margin=1.0))
+    result = solve_top_slide("square", "square", pose, SlideParams(tip_edge_margin=0.02))
+    assert result.solved, result.reason
+    tips = fingertip_chain().forward(np.asarray(result.path))
+    inside = table.polygon.exterior.distance(shapely.points(tips[:, :2, 3]))
+    assert inside.min() >= 0.02 - 1e-3  # the dense path's contacts, within the tolerance

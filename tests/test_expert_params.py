@@ -1,0 +1,37 @@
+"""The expert's per-plate planner settings and its speed profile."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from agents.params import EXPERT_SLIDE_PARAMS, ExpertParams, plate_slide_params
+from agents.trajectory import Segment, time_segment
+from slide_gym.robot.model import MIN_CONTACT_SIZE
+
+
+def test_large_plates_get_the_full_margins_and_goal_band() -> None:
+    sp = plate_slide_params(EXPERT_SLIDE_PARAMS, ExpertParams(), circumradius=0.10)
+    assert sp.u_star == EXPERT_SLIDE_PARAMS.u_star
+    assert sp.centroid_margin == EXPERT_SLIDE_PARAMS.centroid_margin
+    assert sp.goal_band_width == EXPERT_SLIDE_PARAMS.goal_band_width
+
+
+@pytest.mark.parametrize("radius", [0.025, 0.033, 0.045])
+def test_small_plates_plan_less_overhang_in_a_narrower_goal_band(radius: float) -> None:
+    sp = plate_slide_params(EXPERT_SLIDE_PARAMS, ExpertParams(), circumradius=radius)
+    assert MIN_CONTACT_SIZE <= sp.u_star < EXPERT_SLIDE_PARAMS.u_star
+    assert sp.u_star + sp.centroid_margin <= radius
+    assert sp.tip_edge_margin + 0.01 <= sp.goal_band_width < EXPERT_SLIDE_PARAMS.goal_band_width
+
+
+def test_ramped_legs_start_and_stop_gently_and_arrive() -> None:
+    q = np.zeros((2, 7))
+    q[1, 0] = 1.0  # 1 rad at 1 rad/s: 1 s at full speed
+    flat = time_segment(Segment("a", q, 1.0), 0.05)
+    ramped = time_segment(Segment("a", q, 1.0, ramp_s=0.4), 0.05)
+    assert len(ramped) == len(flat) + 8  # the ramp adds its own length (0.4 s)
+    np.testing.assert_allclose(ramped[-1], q[1])
+    steps = np.diff(np.r_[0.0, ramped[:, 0]])
+    assert steps[0] < 0.25 * steps.max() and steps[-1] < 0.25 * steps.max()
+    assert steps.max() <= 0.05 + 1e-12  # never faster than the joint speed

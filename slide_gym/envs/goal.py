@@ -17,6 +17,7 @@ from gymnasium import spaces
 from slide_gym.envs.observation import POS_BOUND, box
 from slide_gym.envs.top_slide import TopSlideEnv
 from slide_gym.geometry import ObjectShape, TableShape, overhang, transform_polygon
+from slide_gym.planning.params import SlideParams
 from slide_gym.planning.regions import goal_band
 from slide_gym.robot.model import PINCH_EDGE_CLEARANCE
 from slide_gym.task import REACH_MAX, REACH_MIN, SceneState
@@ -29,7 +30,7 @@ GOAL_EXTRA_OVERHANG = (0.005, 0.025)
 """A drawn goal overhangs by ``u*`` plus an amount in this range (m)."""
 GOAL_CENTROID_MARGIN = 0.01
 """A drawn goal keeps the plate's centroid this far (m) inside the table outline."""
-_BAND_WIDTH = 0.05  # m, as the planner's goal band P_g (SlideParams.goal_band_width)
+_BAND_WIDTH = SlideParams.goal_band_width  # m: the planner's goal band P_g
 
 
 def goal_vector(pose: Any) -> np.ndarray:

@@ -15,8 +15,6 @@ from typing import Any
 import numpy as np
 
 from slide_gym.geometry import (
-    MAX_THICKNESS,
-    MIN_THICKNESS,
     OBJECT_NAMES,
     TABLE_NAMES,
     ObjectShape,
@@ -24,6 +22,7 @@ from slide_gym.geometry import (
     get_object,
     get_table,
 )
+from slide_gym.geometry.shapes import check_thickness
 from slide_gym.task import PROCEDURAL, check_scene, fit_procedural_object
 
 RANDOM = "random"
@@ -51,15 +50,8 @@ class SceneChoice:
             raise ValueError(f"scale must be a positive number, got {self.scale!r}")
         _check("object", self.object)
         _check("table", self.table)
-        thickness = self.thickness
-        if thickness is not None and not (
-            isinstance(thickness, (int, float))
-            and not isinstance(thickness, bool)
-            and MIN_THICKNESS <= thickness <= MAX_THICKNESS
-        ):
-            raise ValueError(
-                f"thickness must be {MIN_THICKNESS} to {MAX_THICKNESS} m, got {thickness!r}"
-            )
+        if self.thickness is not None:
+            check_thickness(self.thickness)
         objects = _candidates(self.object, OBJECT_NAMES, self._load_object)  # thickness too
         for table in _candidates(self.table, TABLE_NAMES, get_table):
             for obj in objects:

@@ -65,6 +65,11 @@ def _check_range(value: float, lo: float, hi: float, what: str, span: str) -> fl
     return v
 
 
+def check_thickness(value: float, what: str = "thickness") -> float:
+    """An object thickness (m) within [MIN_THICKNESS, MAX_THICKNESS], else a ValueError."""
+    return _check_range(value, MIN_THICKNESS, MAX_THICKNESS, what, "0.3 mm to 5 cm")
+
+
 def _check_finite(value: float, what: str) -> float:
     """``value`` as a float if it is a finite number, else a ValueError naming ``what``."""
     if isinstance(value, (str, bytes, bool)):
@@ -156,9 +161,7 @@ class ObjectShape:
     def __post_init__(self) -> None:
         what = f"object {self.name!r}"
         poly = _check_polygon(self.polygon, what)
-        thickness = _check_range(
-            self.thickness, MIN_THICKNESS, MAX_THICKNESS, f"{what} thickness", "0.3 mm to 5 cm"
-        )
+        thickness = check_thickness(self.thickness, f"{what} thickness")
         object.__setattr__(self, "thickness", thickness)
         object.__setattr__(self, "density", _check_positive(self.density, f"{what} density"))
         size = diameter(poly)

@@ -14,12 +14,12 @@ import numpy as np
 from agents.params import ExpertParams
 from agents.planner_agent import PlannerAgent
 from agents.record import EpisodeRecord
-from slide_gym import DICT_ENV_IDS
+from slide_gym import DICT_ENV_IDS, EXPERT_ENV_ID
 from slide_gym.geometry import ObjectShape, TableShape, get_table
 from slide_gym.planning.result import check_time_budget
 from slide_gym.task import scene_object
 
-ENV_ID = "SlideGym/TopSlideGrasp-v0"
+ENV_ID = EXPERT_ENV_ID
 VIDEO_SUFFIXES = (".mp4", ".gif")
 VIDEO_EVERY = 2
 """Record every second control step (10 frames per simulated second)."""

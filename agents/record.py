@@ -13,6 +13,8 @@ import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
+from slide_gym import EXPERT_ENV_ID
+
 
 @dataclass(kw_only=True)
 class ExpertReport:
@@ -75,7 +77,7 @@ class EpisodeRecord:
     scale: float = 1.0
     seed: int
     planner: str
-    env_id: str = "SlideGym/TopSlideGrasp-v0"
+    env_id: str = EXPERT_ENV_ID
     success: bool = False
     expert: ExpertReport = field(default_factory=ExpertReport)
     phase_reached: str
@@ -100,7 +102,7 @@ class EpisodeRecord:
         planner: str,
         reason: str | Exception,
         scale: float = 1.0,
-        env_id: str = "SlideGym/TopSlideGrasp-v0",
+        env_id: str = EXPERT_ENV_ID,
     ) -> EpisodeRecord:
         """A scene refused before any episode ran (bad name, object too large, ...)."""
         return cls(

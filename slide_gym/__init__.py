@@ -31,6 +31,8 @@ the 95th percentile and 570 at most (a slide and two replanned ones; 85 episodes
 DICT_ENV_IDS: tuple[str, ...] = tuple(i for i in ENV_IDS if i not in _ENTRY_POINTS)
 """The ids of :class:`~slide_gym.envs.top_slide.TopSlideEnv` itself (its state ``Dict``
 observation): the ones the planner agent, ``slide-gym run`` and ``bench execute`` drive."""
+EXPERT_ENV_ID = "SlideGym/TopSlideGrasp-v0"
+"""The env ``slide-gym run`` and ``bench execute`` use by default: slide, grasp, lift."""
 
 for _env_id, (_kwargs, _steps) in _SPECS.items():
     if _env_id not in registry:
@@ -43,4 +45,4 @@ for _env_id, (_kwargs, _steps) in _SPECS.items():
 
 from slide_gym.geometry import OBJECT_NAMES, TABLE_NAMES  # noqa: E402
 
-__all__ = ["DICT_ENV_IDS", "ENV_IDS", "OBJECT_NAMES", "TABLE_NAMES", "__version__"]
+__all__ = ["DICT_ENV_IDS", "ENV_IDS", "EXPERT_ENV_ID", "OBJECT_NAMES", "TABLE_NAMES", "__version__"]

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from slide_gym import EXPERT_ENV_ID
 from slide_gym.bench.jobs import run_cases
 
 if TYPE_CHECKING:  # agents builds on slide_gym: imported on use only
@@ -27,7 +28,7 @@ TRIALS = 10
 TIME_BUDGET = 10.0
 """Planning seconds per episode (first plan and replans together)."""
 OUT = Path("results/bench_execute.jsonl")
-ENV_ID = "SlideGym/TopSlideGrasp-v0"
+ENV_ID = EXPERT_ENV_ID
 """The default environment: slide, grasp and lift."""
 
 

@@ -9,7 +9,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from slide_gym import DICT_ENV_IDS
+from slide_gym import DICT_ENV_IDS, EXPERT_ENV_ID
 from slide_gym.cli.args import (
     add_choice,
     add_command,
@@ -316,6 +316,6 @@ def add_parsers(sub: Any) -> None:
     _planning(p, "per query")
     p.add_argument("--video", type=Path, metavar="FILE", help="also write an MP4 or GIF here")
     env_help = f"environment, one of {', '.join(DICT_ENV_IDS)}"
-    add_choice(p, "--env", DICT_ENV_IDS, "environment", env_help, "SlideGym/TopSlideGrasp-v0", "ID")
+    add_choice(p, "--env", DICT_ENV_IDS, "environment", env_help, EXPERT_ENV_ID, "ID")
     _json_flag(p, "one JSON object, full precision")
     p.set_defaults(func=_cmd_run)

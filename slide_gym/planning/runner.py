@@ -14,7 +14,9 @@ from slide_gym.task import check_scene, scene_object, seeded_start_pose
 
 
 def seeded_generators(seed: int) -> tuple[np.random.Generator, np.random.Generator]:
-    """Independent streams for the random start pose and for the planner, from one seed."""
+    """Two independent streams from one seed: ``(pose, planner)``. :func:`plan_once` uses only
+    the planner's (its start pose is :func:`~slide_gym.task.seeded_start_pose`, the env's
+    draw); the first is kept so the planner's stream for a seed stays what it was."""
     pose_seq, plan_seq = np.random.SeedSequence(seed).spawn(2)
     return np.random.default_rng(pose_seq), np.random.default_rng(plan_seq)
 

@@ -39,6 +39,7 @@ def bench_env(
     random_steps: int = RANDOM_STEPS,
     against: str | None = None,
     drag: bool = False,
+    stability: bool = False,
     rgbd: bool = False,
     image_size: tuple[int, int] = IMAGE_SIZE,
 ) -> dict[str, Any]:
@@ -51,7 +52,8 @@ def bench_env(
     (``SlideGym/TopSlide-v0``, its time limit, resets included), and with ``against``
     (a key of :data:`AGAINST`) the other environment on the same protocol, runs alternating,
     best of ``repeats`` each; ``rtf_ratio`` is ours over theirs. ``drag`` adds
-    :func:`slide_gym.bench.drag.drag_summary` (sinking and creep of pressed, dragged plates).
+    :func:`slide_gym.bench.drag.drag_summary` (sinking and creep of pressed, dragged plates);
+    ``stability`` adds :func:`arm_speeds` (how fast random actions ever move the arm).
     ``rgbd`` also replays the actions in an ``obs_mode="rgbd"`` env (``image_size`` images,
     alternating with the other runs): its steps/s and the images' cost per step (ms).
     """
@@ -148,7 +150,44 @@ def bench_env(
         from slide_gym.bench.drag import drag_summary
 
         result["drag"] = drag_summary()
+    if stability:
+        result["stability"] = arm_speeds()
     return result
+
+
+def arm_speeds(episodes: int = 20, steps: int = 300, seed: int = 3) -> dict[str, Any]:
+    """The fastest arm joint speed (rad/s, observed after each step) in each of ``episodes``
+    random-action episodes of ``SlideGym/TopSlide-v0`` (seeds ``seed``, ``seed + 1``, ...;
+    action generator seeded alike): the WAM's limit is 2 rad/s, the commands ask at most
+    1 rad/s, and the observation clips at 20 (a diverging simulation)."""
+    import gymnasium as gym
+
+    import slide_gym  # noqa: F401 - registers the envs
+
+    env = gym.make("SlideGym/TopSlide-v0", object="square", table="square")
+    fastest = []
+    try:
+        for k in range(episodes):
+            env.reset(seed=seed + k)
+            rng = np.random.default_rng(seed + k)
+            top = 0.0
+            for _ in range(steps):
+                obs, _, terminated, truncated, _ = env.step(
+                    rng.uniform(-1, 1, 8).astype(np.float32)
+                )
+                top = max(top, float(np.abs(obs["arm_qvel"]).max()))
+                if terminated or truncated:
+                    break
+            fastest.append(round(top, 2))
+    finally:
+        env.close()
+    return {
+        "episodes": episodes,
+        "steps": steps,
+        "fastest_per_episode": fastest,
+        "episodes_above_6_rad_s": sum(v > 6.0 for v in fastest),
+        "episodes_at_the_clip": sum(v >= 19.99 for v in fastest),
+    }
 
 
 def _load_against(against: str) -> str:

@@ -22,7 +22,8 @@ from slide_gym.planning.search import PLANNERS
 def _cmd_bench_env(args: argparse.Namespace) -> int:
     from slide_gym.bench.env import bench_env, write_result
 
-    options = ("steps", "resets", "seed", "random_steps", "against", "drag", "rgbd", "image_size")
+    options = ("steps", "resets", "seed", "random_steps", "against", "drag", "stability")
+    options += ("rgbd", "image_size")
     result = bench_env(args.object, args.table, **{name: getattr(args, name) for name in options})
     write_result(result, args.out)
     return 0
@@ -154,6 +155,11 @@ def _add_env(what: Any) -> None:
         "--drag",
         action="store_true",
         help="also press and drag plates of 0.5-10 mm by 20 cm (sinking, lag, ejections)",
+    )
+    p.add_argument(
+        "--stability",
+        action="store_true",
+        help="also the fastest arm joint speed in each of 20 random-action episodes",
     )
     p.add_argument(
         "--rgbd",

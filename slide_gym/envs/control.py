@@ -25,6 +25,7 @@ class ArmControl:
     """Base class: joint targets kept between steps, and the action's validation."""
 
     action_space: spaces.Box
+    max_joint_step: float  # rad: the largest joint target change per step
 
     def __init__(self) -> None:
         self.target = np.zeros(7)

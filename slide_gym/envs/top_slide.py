@@ -200,14 +200,12 @@ class TopSlideEnv(gym.Env):
         self.control_mode, self.obs_mode = control_mode, obs_mode
         self.goal, self.reward_type, self.render_mode = goal, reward_type, render_mode
         self.n_substeps = int(round(substeps))
-        self.max_joint_step = float(max_joint_step)
         self.metadata = {**self.metadata, "render_fps": control_hz}
         self.camera = Camera.of(camera)
         self.render_size = image_size(render_width, render_height, RENDER_SIZE)
         self.observer = make_observation(obs_mode, render_width, render_height, self.camera)
 
         self.scene = SceneChoice(object, table, scale, thickness)
-        self.scale = self.scene.scale
 
         self.task = TopSlideTask(task_params)
         self.sim = Simulation(render_mode, PhysicsParams(timestep=1.0 / physics_hz))
@@ -221,6 +219,16 @@ class TopSlideEnv(gym.Env):
 
         self.action_space = self.control.action_space
         self.observation_space = self.observer.space
+
+    @property
+    def scale(self) -> float:
+        """The object scale factor the env draws with (a reset option may differ)."""
+        return self.scene.scale
+
+    @property
+    def max_joint_step(self) -> float:
+        """Largest arm joint target change per control step (rad), in every control mode."""
+        return self.control.max_joint_step
 
     @property
     def dt(self) -> float:

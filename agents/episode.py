@@ -5,6 +5,7 @@ contract)."""
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -82,57 +83,84 @@ def run_episode(
         control_mode=control_mode,
         **planner_params,
     )
+    frames: list[np.ndarray] = []
     dt = env.unwrapped.dt
-    wall = time.perf_counter()
-    frames = []
     try:
         options = None if object_pose is None else {"object_pose": object_pose}
-        obs, info = env.reset(seed=seed, options=options)
-        start = info["object_pose_2d"]
-        if video:
-            frames.append(env.render())
-        steps, max_lift, terminated, truncated = 0, 0.0, False, False
-        while not (terminated or truncated):
-            action, _ = agent.predict(obs, episode_start=np.array([steps == 0]))
-            obs, _, terminated, truncated, info = env.step(action)
-            steps += 1
-            max_lift = max(max_lift, float(info["lift_m"]))
-            if video and steps % VIDEO_EVERY == 0:
-                frames.append(env.render())
-        expert = agent.expert(0)
-        assert expert is not None
-        report = expert.report
-        phase = expert.phase
+        record = play_episode(
+            env, agent, seed=seed, options=options, frames=frames if video else None
+        )
     finally:
         agent.close()
         env.close()
-    wall_time = time.perf_counter() - wall
+    record.scale = float(scale)  # the env got the scaled shape itself
     if video:
-        _write_video(Path(video), frames, VIDEO_EVERY * dt)
+        write_video(Path(video), frames, VIDEO_EVERY * dt)
+        record.video = str(video)
+    return record
+
+
+StepHook = Callable[[Any, dict[str, Any], float, bool, bool, dict[str, Any]], None]
+"""``hook(action, observation, reward, terminated, truncated, info)`` after every step."""
+
+
+def play_episode(
+    env: gym.Env,
+    agent: PlannerAgent,
+    *,
+    seed: int,
+    options: dict[str, Any] | None = None,
+    frames: list[np.ndarray] | None = None,
+    on_reset: Callable[[dict[str, Any], dict[str, Any]], None] | None = None,
+    on_step: StepHook | None = None,
+) -> EpisodeRecord:
+    """Reset ``env`` with ``seed`` and ``options``, let ``agent`` act until the episode ends,
+    and return its record. ``frames`` collects ``env.render()`` every :data:`VIDEO_EVERY`
+    steps; ``on_reset(obs, info)`` and ``on_step`` see every observation."""
+    base = env.unwrapped
+    wall = time.perf_counter()
+    obs, info = env.reset(seed=seed, options=options)
+    if on_reset is not None:
+        on_reset(obs, info)
+    start = info["object_pose_2d"]
+    if frames is not None:
+        frames.append(env.render())
+    steps, max_lift, terminated, truncated = 0, 0.0, False, False
+    while not (terminated or truncated):
+        action, _ = agent.predict(obs, episode_start=np.array([steps == 0]))
+        obs, reward, terminated, truncated, info = env.step(action)
+        if on_step is not None:
+            on_step(action, obs, float(reward), terminated, truncated, info)
+        steps += 1
+        max_lift = max(max_lift, float(info["lift_m"]))
+        if frames is not None and steps % VIDEO_EVERY == 0:
+            frames.append(env.render())
+    expert = agent.expert(0)
+    assert expert is not None
     return EpisodeRecord(
-        object=shape.name,
-        table=table_shape.name,
-        scale=float(scale),
+        object=base.task.object.name,
+        table=base.task.table.name,
+        scale=float(base.scale),
         seed=int(seed),
-        planner=planner,
-        env_id=env_id,
+        planner=agent.planner,
+        env_id=env.spec.id if env.spec is not None else "",
         success=bool(info["is_success"]),
-        expert=report,
-        phase_reached=phase,
+        expert=expert.report,
+        phase_reached=expert.phase,
         steps=steps,
-        sim_time_s=steps * dt,
-        wall_time_s=wall_time,
+        sim_time_s=steps * base.dt,
+        wall_time_s=time.perf_counter() - wall,
         object_start_pose=[float(v) for v in start],
         object_final_pose=[float(v) for v in info["object_pose_2d"]],
         lift_height_m=float(info["lift_m"]),
         max_lift_height_m=max_lift,
         fell_off=bool(info["fell_off"]),
         truncated=bool(truncated),
-        video=str(video) if video else None,
     )
 
 
-def _write_video(path: Path, frames: list[np.ndarray], frame_dt: float) -> None:
+def write_video(path: Path, frames: list[np.ndarray], frame_dt: float) -> None:
+    """Frames as an ``.mp4`` (H.264) or ``.gif`` with ``frame_dt`` seconds per frame."""
     import imageio.v3 as iio
 
     path.parent.mkdir(parents=True, exist_ok=True)

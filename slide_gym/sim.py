@@ -52,6 +52,8 @@ with silenced_stdout((1, 2)):  # the import prints its build-time banner on stde
 
 _MESH_CACHE = Path(tempfile.gettempdir()) / "slide_gym_meshes"
 RENDER_MODES: tuple[str | None, ...] = (None, "rgb_array", "human")
+OBJECT_STATE_SIZE = 13
+"""Length of :meth:`Simulation.body_state`: position, quaternion, linear, angular velocity."""
 MAX_IMAGE_SIDE = 4096
 """Largest image width or height (pixels) that :meth:`Simulation.render` accepts."""
 
@@ -285,6 +287,31 @@ class Simulation:
     def base_velocity(self, name: str) -> tuple[np.ndarray, np.ndarray]:
         lin, ang = self.client.getBaseVelocity(self.body(name))
         return np.array(lin), np.array(ang)
+
+    def body_state(self, name: str) -> np.ndarray:
+        """A free body's base position (3,), quaternion xyzw (4,), linear and angular
+        velocity (3, 3), as one (13,) float64 vector."""
+        c, body = self.client, self.body(name)
+        pos, orn = c.getBasePositionAndOrientation(body)
+        lin, ang = c.getBaseVelocity(body)
+        return np.array([*pos, *orn, *lin, *ang], dtype=float)
+
+    def set_body_state(self, name: str, state: np.ndarray) -> None:
+        """Put a body in ``state`` (from :meth:`body_state`)."""
+        c, body = self.client, self.body(name)
+        s = [float(v) for v in state]
+        c.resetBasePositionAndOrientation(body, s[:3], s[3:7])
+        c.resetBaseVelocity(body, s[7:10], s[10:13])
+
+    def drop_contacts(self) -> None:
+        """Run a collision pass with the bodies already moved apart, so that PyBullet frees
+        every contact manifold (with its cached points and warm-start impulses). A
+        RuntimeError if any contact is left: the caller did not move everything apart."""
+        self.client.performCollisionDetection()
+        left = self.client.getContactPoints()
+        if left:
+            pairs = sorted({(p[1], p[3], p[2], p[4]) for p in left})
+            raise RuntimeError(f"contacts left after moving the bodies apart: {pairs}")
 
     def contact_points(self, a: str, b: str, link_a: int | None = None) -> list:
         kwargs = {} if link_a is None else {"linkIndexA": link_a}

@@ -143,7 +143,7 @@ def _refuse(*args: object, **kwargs: object) -> Any:
     ("argv", "message"),
     [
         (["nope"], "unknown experiment 'nope'; choose from fig10, fig11, fig12, all, "),
-        (["fig10", "--backend", "ray"], "--backend ray is not available yet: it comes with the "),
+        (["fig10", "--ray-address", "10.0.0.1:6379"], "--ray-address goes with --backend ray"),
         (["relaxation"], "'relaxation' is not implemented yet; run one of fig10, fig11, fig12"),
         (["all", "--workers", "0"], "--workers must be >= 1"),
     ],

@@ -83,6 +83,8 @@ def bench_execute(
     scale: float = 1.0,
     thickness: float | None = None,
     env_id: str = ENV_ID,
+    backend: str = "local",
+    address: str | None = None,
 ) -> dict[str, Any]:
     """Run ``trials`` seeded episodes per object and table (resumable: results go to ``out``).
 
@@ -91,6 +93,7 @@ def bench_execute(
     ``seed + k + T * i``, so ``--objects procedural --trials 50`` runs 200 different plates
     on the 4 tables. ``scale`` and ``thickness`` (m) apply to every object. ``env_id``: the
     environment (``SlideGym/TopSlide-v0``: the slide alone, success = left graspable).
+    ``backend``, ``address``: where episodes run (:func:`slide_gym.bench.jobs.run_cases`).
     """
     from slide_gym import DICT_ENV_IDS
     from slide_gym.geometry import get_object, get_table
@@ -131,7 +134,10 @@ def bench_execute(
         for o in objects
         for k, t in enumerate(tables)
     ]
-    return summarize_execute(run_cases(execute_case, cases, out, workers, desc="execute"))
+    rows = run_cases(
+        execute_case, cases, out, workers, desc="execute", backend=backend, address=address
+    )
+    return summarize_execute(rows)
 
 
 def _median(values: Sequence[float]) -> float | None:

@@ -60,10 +60,13 @@ def bench_plan(
     workers: int | None = None,
     seed: int = 0,
     plot: Path | None = None,
+    backend: str = "local",
+    address: str | None = None,
 ) -> dict[str, Any]:
     """Success rate against planning time per planner (resumable: results go to ``out``).
 
     ``planners`` defaults to every name in :data:`slide_gym.planning.search.PLANNERS`.
+    ``backend``, ``address``: where queries run (:func:`slide_gym.bench.jobs.run_cases`).
     """
     from slide_gym.geometry import get_object, get_table
     from slide_gym.planning.result import check_time_budget
@@ -94,7 +97,7 @@ def bench_plan(
         for o in objects
         for p in planners
     ]
-    rows = run_cases(plan_case, cases, out, workers, desc="plan")
+    rows = run_cases(plan_case, cases, out, workers, desc="plan", backend=backend, address=address)
     summary = summarize_plan(rows, planners, time_budget)
     if plot is not None:
         plot_success_curves(rows, planners, time_budget, plot)

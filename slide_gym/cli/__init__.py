@@ -1,8 +1,8 @@
 """The ``slide-gym`` command. Bad input prints one line to stderr and exits with code 2.
 
 Each group of subcommands registers itself from its own module (:mod:`.commands`,
-:mod:`.bench`, :mod:`.experiment`); the heavy imports happen inside the handlers, so ``--help``
-stays fast.
+:mod:`.bench`, :mod:`.experiment`, :mod:`.data`); the heavy imports happen inside the
+handlers, so ``--help`` stays fast.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import sys
 from collections.abc import Sequence
 
 from slide_gym import __version__
-from slide_gym.cli import bench, commands, experiment
+from slide_gym.cli import bench, commands, data, experiment
 from slide_gym.cli.args import HelpFormatter, check_seed, examples_epilog
 
 EXAMPLES = (
@@ -37,6 +37,7 @@ def build_parser() -> argparse.ArgumentParser:
     commands.add_parsers(sub)
     bench.add_parsers(sub)
     experiment.add_parsers(sub)
+    data.add_parsers(sub)
     return parser
 
 

@@ -94,6 +94,28 @@ def add_choice(
     )
 
 
+def add_backend(p: argparse.ArgumentParser) -> None:
+    """``--backend local|ray`` and ``--ray-address`` of the parallel jobs."""
+    from slide_gym.bench.jobs import BACKENDS
+
+    add_choice(
+        p,
+        "--backend",
+        BACKENDS,
+        "backend",
+        "local: a process pool on this machine (--workers); ray: Ray tasks, one CPU each "
+        "(the ray extra)",
+        "local",
+        "NAME",
+    )
+    p.add_argument(
+        "--ray-address",
+        metavar="ADDR",
+        help="the Ray cluster to use with --backend ray (default: start a local Ray instance "
+        "with --workers CPUs)",
+    )
+
+
 def parse_floats(text: str, n: int, what: str) -> tuple[float, ...]:
     """``n`` comma-separated numbers, or a ValueError naming the option ``what``."""
     try:

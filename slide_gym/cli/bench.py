@@ -10,6 +10,7 @@ from typing import Any
 from slide_gym import DICT_ENV_IDS
 from slide_gym.cli.args import (
     HelpFormatter,
+    add_backend,
     add_choice,
     add_command,
     examples_epilog,
@@ -43,6 +44,8 @@ def _cmd_bench_plan(args: argparse.Namespace) -> int:
         workers=args.workers,
         seed=args.seed,
         plot=args.plot,
+        backend=args.backend,
+        address=args.ray_address,
     )
     print(json.dumps(summary, indent=2))
     return 0
@@ -56,6 +59,8 @@ def _cmd_bench_execute(args: argparse.Namespace) -> int:
         objects=parse_names(args.objects),
         tables=parse_names(args.tables),
         env_id=args.env,
+        backend=args.backend,
+        address=args.ray_address,
         **{name: getattr(args, name) for name in options},
     )
     print(execute_markdown_table(summary) if args.markdown else json.dumps(summary, indent=2))
@@ -97,6 +102,7 @@ def _add_jobs(p: argparse.ArgumentParser, out: Path, first_seed: str) -> None:
     p.add_argument(
         "--workers", type=int, metavar="N", help="worker processes (default: one per core)"
     )
+    add_backend(p)
     p.add_argument(
         "--out",
         type=Path,

@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from slide_gym.cli.args import add_choice, add_command
+from slide_gym.cli.args import add_backend, add_choice, add_command
 
 ALL = "all"
 """Runs every implemented experiment in turn."""
@@ -17,15 +17,20 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
     from slide_gym.experiments import run_experiments
 
     summaries = run_experiments(
-        [args.name], quick=args.quick, workers=args.workers, backend=args.backend, out=args.out
+        [args.name],
+        quick=args.quick,
+        workers=args.workers,
+        backend=args.backend,
+        out=args.out,
+        address=args.ray_address,
     )
     print(json.dumps(summaries, indent=2))
     return 0
 
 
 def add_parsers(sub: Any) -> None:
-    """``slide-gym experiment NAME [--quick] [--workers W] [--backend local] [--out DIR]``."""
-    from slide_gym.experiments.run import BACKENDS, OUT
+    """``slide-gym experiment NAME [--quick] [--workers W] [--backend local|ray] [--out DIR]``."""
+    from slide_gym.experiments.run import OUT
     from slide_gym.experiments.specs import EXPERIMENTS, LATER, QUICK_BUDGET, TIME_BUDGET
 
     names = (*EXPERIMENTS, ALL, *LATER)
@@ -59,11 +64,7 @@ def add_parsers(sub: Any) -> None:
     p.add_argument(
         "--workers", type=int, metavar="N", help="worker processes (default: one per core)"
     )
-    backend_help = (
-        f"where queries run, one of {', '.join(BACKENDS)} (local: a process pool here; "
-        "ray comes with the datasets issue)"
-    )
-    add_choice(p, "--backend", BACKENDS, "backend", backend_help, "local", "NAME")
+    add_backend(p)
     p.add_argument(
         "--out",
         type=Path,

@@ -47,6 +47,19 @@ class ArmControl:
     def _arm_targets(self, arm_action: np.ndarray) -> np.ndarray:
         raise NotImplementedError
 
+    @property
+    def state_size(self) -> int:
+        """Length of :meth:`get_state`."""
+        return 7
+
+    def get_state(self) -> np.ndarray:
+        """What the controller carries between steps: the joint targets (7,)."""
+        return self.target.copy()
+
+    def set_state(self, state: np.ndarray) -> None:
+        """Restore :meth:`get_state`."""
+        self.target = np.array(state[:7], dtype=float)
+
 
 class JointDeltaControl(ArmControl):
     """``Box(-1, 1, (8,))``: entries 0-6 times ``max_joint_step`` (rad) are added to the arm's
@@ -95,6 +108,20 @@ class EEDeltaControl(ArmControl):
     def reset(self, arm_q: np.ndarray) -> None:
         super().reset(arm_q)
         self.target_pose = self.chain.forward(self.target)
+
+    @property
+    def state_size(self) -> int:
+        return 7 + 12
+
+    def get_state(self) -> np.ndarray:
+        """The joint targets (7,), then the target pose's top three rows (12,), row-major."""
+        return np.concatenate([self.target, self.target_pose[:3].ravel()])
+
+    def set_state(self, state: np.ndarray) -> None:
+        super().set_state(state)
+        pose = np.eye(4)
+        pose[:3] = np.asarray(state[7:19], dtype=float).reshape(3, 4)
+        self.target_pose = pose
 
     def _arm_targets(self, arm_action: np.ndarray) -> np.ndarray:
         pose = self.target_pose.copy()

@@ -14,7 +14,8 @@ from slide_gym.envs.reward import DenseReward, sparse_terms
 from slide_gym.envs.scene import RESET_OPTIONS, SceneChoice
 from slide_gym.geometry import ObjectShape, TableShape
 from slide_gym.robot import ARM_LOWER, ARM_UPPER, READY_ARM_Q, WamT42
-from slide_gym.sim import PhysicsParams, Simulation
+from slide_gym.robot.wam_t42 import STATE_SIZE as ROBOT_STATE_SIZE
+from slide_gym.sim import OBJECT_STATE_SIZE, PhysicsParams, Simulation
 from slide_gym.task import (
     SceneState,
     TaskParams,
@@ -23,6 +24,10 @@ from slide_gym.task import (
     validate_start_pose,
 )
 
+_FAR_ROBOT = (-100.0, -100.0, 100.0)
+_FAR_OBJECT = (100.0, 100.0, 100.0)
+"""Where :meth:`TopSlideEnv._restore` moves the bodies for a collision pass that frees their
+contact caches: far from the table and from each other."""
 _SETTLE_STEPS = 24
 """Physics steps at reset before the first observation: the plate comes to rest."""
 
@@ -214,6 +219,11 @@ class TopSlideEnv(gym.Env):
         self._state: SceneState | None = None
         self._lift_steps = 0  # consecutive control steps the object has been held up
         self._is_success = False
+        self._put_state: np.ndarray | None = None  # set_state's vector until the next step
+        self.start_pose = np.zeros(3)
+        """``(x, y, yaw)`` the last reset placed the object at (before it settled): with the
+        reset's seed and options and ``object_pose=start_pose``, a reset gives the same
+        episode start."""
         self.dense_reward = DenseReward()
         self._reward_terms: dict[str, float] = {}
 
@@ -235,7 +245,11 @@ class TopSlideEnv(gym.Env):
         """Seconds of simulated time per :meth:`step` (physics timestep x substeps)."""
         return self.n_substeps * self.sim.settings.timestep
 
-    # ------------------------------------------------------------------ set-up
+    @property
+    def state_size(self) -> int:
+        """Length of :meth:`get_state`."""
+        return ROBOT_STATE_SIZE + OBJECT_STATE_SIZE + self.control.state_size + 3
+
     # --------------------------------------------------------------- gym API
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
@@ -258,6 +272,7 @@ class TopSlideEnv(gym.Env):
             pose = validate_start_pose(obj, table, options["object_pose"])
         else:
             pose = sample_start_pose(obj, table, self.np_random, p.start_margin)
+        self.start_pose = np.asarray(pose, dtype=float).copy()
         arm_q = np.array(READY_ARM_Q, dtype=float)
         if options.get("arm_qpos") is not None:
             arm_q = np.asarray(options["arm_qpos"], dtype=float).reshape(-1)
@@ -280,6 +295,7 @@ class TopSlideEnv(gym.Env):
         for _ in range(_SETTLE_STEPS):
             self.robot.step_physics()
         self.observer.set_scene(obj, table)
+        self._put_state = None
         self._state = self._read_state()
         self._lift_steps = 0
         self._is_success = self._success(self._state)
@@ -291,6 +307,7 @@ class TopSlideEnv(gym.Env):
     ) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
         if self._state is None:
             raise RuntimeError("call reset() before step()")
+        self._put_state = None
         target, self._u = self.control.apply(action)
         span = self._command_arm(target)
         self.robot.set_hand_command(self._u)
@@ -302,6 +319,77 @@ class TopSlideEnv(gym.Env):
         reward = self._reward(s, success)
         terminated = success or s.fell_off
         return self._observation(), reward, terminated, False, self._info(s)
+
+    def get_state(self) -> np.ndarray:
+        """The whole state of the episode as one float64 vector (:attr:`state_size`):
+
+        | part | size | contents |
+        |---|---|---|
+        | robot | 37 | :meth:`WamT42.get_state`: joint angles, velocities, hand controller |
+        | object | 13 | position, quaternion xyzw, linear and angular velocity of its base |
+        | control | 7 (19) | the arm's joint targets (``"ee_delta"``: and its target pose) |
+        | episode | 3 | hand command u, control steps the lift has held, success (0/1) |
+
+        It is not everything PyBullet keeps: between physics steps it also caches the contact
+        points of every touching pair (with their friction anchors and warm-start impulses),
+        and no API reads or writes them. :meth:`set_state` therefore restores the world to
+        within those caches (see there); an exact replay resets with the episode's seed and
+        options and steps the same actions (the world is rebuilt on every reset, so that is
+        bit for bit).
+        """
+        if self._put_state is not None:
+            return self._put_state.copy()
+        return np.concatenate(
+            [
+                self.robot.get_state(),
+                self.sim.body_state("object"),
+                self.control.get_state(),
+                [self._u, float(self._lift_steps), float(self._is_success)],
+            ]
+        )
+
+    def set_state(self, state: np.ndarray) -> None:
+        """Put the episode in ``state`` (from :meth:`get_state` of an env with the same
+        arguments, after a reset with the same seed and options: the scene is not part of
+        the state). The next :meth:`observation` or :meth:`step` continues from it.
+
+        PyBullet's contact caches (see :meth:`get_state`) are dropped, and rebuilt from the
+        geometry on the next physics step, so the continuation is close to the original but
+        not bit for bit (``slide-gym replay --mode states`` measures by how much). Dropping
+        them at every step would make restores exact, but it costs the friction anchors that
+        hold a pinched plate: with it, 3 of 6 expert lifts lost the plate (same scenes: 6 of
+        6 held without).
+        """
+        if self._state is None:
+            raise RuntimeError("call reset() before set_state(): the state holds no scene")
+        s = np.array(state, dtype=float).reshape(-1)
+        if s.shape != (self.state_size,) or not np.all(np.isfinite(s)):
+            raise ValueError(
+                f"state must be {self.state_size} finite numbers (get_state() of an env with "
+                f"control_mode={self.control_mode!r}), got shape {np.shape(state)}"
+            )
+        self._restore(s)
+        self._put_state = s
+        self._state = self._read_state()
+
+    def observation(self) -> dict[str, np.ndarray]:
+        """The observation of the current state (as :meth:`step` would return it)."""
+        return self._observation()
+
+    def _restore(self, s: np.ndarray) -> None:
+        """Move the robot and the object apart, drop PyBullet's contact caches, then put
+        every body and controller in ``s`` (see :meth:`get_state`)."""
+        r, o = ROBOT_STATE_SIZE, ROBOT_STATE_SIZE + OBJECT_STATE_SIZE
+        c = o + self.control.state_size
+        self.robot.move_apart(_FAR_ROBOT)
+        self.sim.set_body_state("object", np.r_[_FAR_OBJECT, 0, 0, 0, 1, np.zeros(6)])
+        self.sim.drop_contacts()
+        self.robot.set_state(s[:r])
+        self.sim.set_body_state("object", s[r:o])
+        self.robot.move_back()
+        self.control.set_state(s[o:c])
+        u, lift_steps, success = s[c:]
+        self._u, self._lift_steps, self._is_success = float(u), int(lift_steps), bool(success)
 
     def _command_arm(self, target: np.ndarray) -> int:
         """Pick this control period's physics settings (:meth:`Simulation.adapt`: full ones

@@ -8,14 +8,12 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from slide_gym.bench.jobs import Case, load_results, run_cases
+from slide_gym.bench.jobs import Case, check_backend, load_results, run_cases
 from slide_gym.experiments.specs import EXPERIMENTS, LATER, experiment_cases
 from slide_gym.experiments.version import code_version
 
 OUT = Path("results/experiments")
 """Default results folder."""
-BACKENDS = ("local", "ray")
-"""``--backend`` names; only ``local`` (a process pool on this machine) runs so far."""
 LEFT_OUT = ("path", "transfer_path", "table_polygon")
 """``slide-gym plan --json`` fields not stored per row: the paths (large) and the table's
 outline (the same for every row of a table; the catalog has it)."""
@@ -52,17 +50,6 @@ def experiment_case(case: Case) -> dict[str, Any]:
     return {**row, **case}
 
 
-def check_backend(backend: str) -> None:
-    """A ValueError unless ``backend`` runs in this version."""
-    if backend == "ray":
-        raise ValueError(
-            "--backend ray is not available yet: it comes with the datasets issue; "
-            "use --backend local (a process pool on this machine, see --workers)"
-        )
-    if backend not in BACKENDS:
-        raise ValueError(f"unknown backend {backend!r}; choose from {', '.join(BACKENDS)}")
-
-
 def check_file(path: Path, version: str) -> None:
     """A ValueError if ``path`` holds a row of another code version (a renamed or merged
     file): such rows are never counted as done, nor mixed into this version's results."""
@@ -92,9 +79,11 @@ def run_experiment(
     workers: int | None = None,
     backend: str = "local",
     out: Path = OUT,
+    address: str | None = None,
 ) -> dict[str, Any]:
-    """Run (or resume) experiment ``name`` into :func:`results_file`; a summary of its rows."""
-    check_backend(backend)
+    """Run (or resume) experiment ``name`` into :func:`results_file`; a summary of its rows.
+    ``backend`` and ``address``: see :func:`~slide_gym.bench.jobs.run_cases`."""
+    check_backend(backend, address)
     if name in LATER:
         implemented = ", ".join(EXPERIMENTS)
         raise ValueError(f"experiment {name!r} is not implemented yet; run one of {implemented}")
@@ -104,7 +93,9 @@ def run_experiment(
     check_file(path, version)
     for old in other_versions(out, name, version, quick):
         print(f"{name}: not reusing {old} (another code version)", file=sys.stderr)
-    rows = run_cases(experiment_case, cases, path, workers, desc=name)
+    rows = run_cases(
+        experiment_case, cases, path, workers, desc=name, backend=backend, address=address
+    )
     statuses: dict[str, int] = {}
     for row in rows:
         statuses[row["status"]] = statuses.get(row["status"], 0) + 1
@@ -125,10 +116,11 @@ def run_experiments(
     workers: int | None = None,
     backend: str = "local",
     out: Path = OUT,
+    address: str | None = None,
 ) -> list[dict[str, Any]]:
     """:func:`run_experiment` for each of ``names`` in turn (``all``: every implemented one)."""
-    check_backend(backend)
+    check_backend(backend, address)
     if workers is not None and workers < 1:
         raise ValueError(f"--workers must be >= 1, got {workers}")
     expanded = [n for name in names for n in (EXPERIMENTS if name == "all" else (name,))]
-    return [run_experiment(n, quick, workers, backend, out) for n in expanded]
+    return [run_experiment(n, quick, workers, backend, out, address) for n in expanded]

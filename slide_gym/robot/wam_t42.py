@@ -21,8 +21,8 @@ finger's 2x2 joint-space inertia and an estimate of everything else acting on th
 applied torque equals the formula above exactly (no bias); in motion it is a backward-Euler
 spring-damper, stable for any stiffness. ``HandParams(implicit=False)`` gives the plain
 explicit law (for comparison; it blows up with the default stiffness). The estimator keeps
-one step of history: :meth:`WamT42.reset` clears it, and :meth:`WamT42.controller_state` /
-:meth:`WamT42.set_controller_state` save and restore it next to a PyBullet state.
+one step of history: :meth:`WamT42.reset` clears it, and :meth:`WamT42.get_state` /
+:meth:`WamT42.set_state` save and restore it with the joints.
 
 The tendon level follows the command at ``HandParams.u_rate`` per second (servo speed), so
 a step in u does not slam the light fingers together.
@@ -60,6 +60,8 @@ FINGER_LINKS = (
 """Finger A's links and finger B's (only :data:`FINGER_PAIRS_KEPT` collide, see :meth:`load`)."""
 FINGER_PAIRS_KEPT = {("t42_a_distal_link", "t42_b_distal_link")}
 """The finger A / finger B link pairs that do collide: the tips."""
+STATE_SIZE = 2 * 11 + 3 + 12
+"""Length of :meth:`WamT42.get_state`."""
 LOAD_FLAGS = (
     pb.URDF_USE_INERTIA_FROM_FILE
     | pb.URDF_USE_SELF_COLLISION
@@ -109,6 +111,7 @@ class WamT42:
         # finger (dq, tau, estimated other torques) of the last step
         self._prev: tuple[list[float], list[float], list[float]] | None = None
         self._other = [0.0] * 4
+        self._base_pose: tuple = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
 
     # ------------------------------------------------------------------ set-up
     def load(self) -> int:
@@ -358,13 +361,45 @@ class WamT42:
         self.apply_hand_torques()
         self.sim.step()
 
-    def controller_state(self) -> tuple:
-        """The hand controller's Python-side state (tendon levels, estimator history)."""
-        return (self._u, self._u_applied, self._prev)
+    def get_state(self) -> np.ndarray:
+        """Everything that decides the robot's next physics steps, as :data:`STATE_SIZE`
+        float64s: joint angles and velocities (7 arm joints, then FINGER_JOINTS), the tendon
+        command and applied level, and the finger estimator's history (a 0/1 flag, then the
+        last finger velocities, torques and estimated other torques). The arm's motor targets
+        are not in it: the caller sends them every control step."""
+        q, dq = self.joint_state()
+        has_prev = self._prev is not None
+        prev = [v for part in self._prev for v in part] if self._prev else [0.0] * 12
+        return np.concatenate([q, dq, [self._u, self._u_applied, float(has_prev)], prev])
 
-    def set_controller_state(self, state: tuple) -> None:
-        """Restore what :meth:`controller_state` returned (e.g. with ``restoreState``)."""
-        self._u, self._u_applied, self._prev = state
+    def set_state(self, state: np.ndarray) -> None:
+        """Put the joints and the hand controller in ``state`` (from :meth:`get_state`)."""
+        s = np.asarray(state, dtype=float)
+        n = len(ARM_JOINTS) + len(FINGER_JOINTS)
+        c = self.sim.client
+        for j, q, dq in zip(self._arm_list + self._finger_list, s[:n], s[n : 2 * n], strict=True):
+            c.resetJointState(self.body, j, float(q), float(dq))
+        self._u, self._u_applied = float(s[2 * n]), float(s[2 * n + 1])
+        prev = [float(v) for v in s[2 * n + 3 :]]
+        if s[2 * n + 2]:
+            self._prev = (prev[:4], prev[4:8], prev[8:])
+            self._other = prev[8:]
+        else:
+            self._prev, self._other = None, [0.0] * 4
+
+    def move_apart(self, far: tuple[float, float, float]) -> None:
+        """Move the base to ``far`` and open the fingers as wide as they go, so that the next
+        collision pass finds no contact on the robot (not even finger against finger).
+        :meth:`set_state` then :meth:`move_back` put it back."""
+        c = self.sim.client
+        self._base_pose = c.getBasePositionAndOrientation(self.body)
+        c.resetBasePositionAndOrientation(self.body, far, (0.0, 0.0, 0.0, 1.0))
+        for j in self._finger_list:
+            c.resetJointState(self.body, j, c.getJointInfo(self.body, j)[8], 0.0)
+
+    def move_back(self) -> None:
+        """The base back where :meth:`move_apart` found it."""
+        self.sim.client.resetBasePositionAndOrientation(self.body, *self._base_pose)
 
     # ------------------------------------------------------------------ state
     def _joint_state(self, joints: list[int]) -> tuple[np.ndarray, np.ndarray]:

@@ -1,0 +1,217 @@
+"""Run an agent (a saved SB3 model or a planner) in a slide-gym env and report its success.
+
+:func:`evaluate` runs ``episodes`` episodes on held-out reset seeds (``seed``, ``seed + 1``,
+...) and returns the success rate with its Wilson 95 % interval (:func:`wilson_interval`).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from slide_gym import DICT_ENV_IDS
+from slide_gym.planning.api import PLANNERS
+from slide_gym.planning.result import check_time_budget
+
+
+def wilson_interval(successes: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """The Wilson score interval of a success rate (``z=1.96``: 95 %)."""
+    if n < 1:
+        raise ValueError(f"n must be >= 1, got {n}")
+    if not 0 <= successes <= n:
+        raise ValueError(f"successes must be in [0, n={n}], got {successes}")
+    if not z > 0:
+        raise ValueError(f"z must be positive, got {z}")
+    p = successes / n
+    denom = 1.0 + z * z / n
+    center = (p + z * z / (2 * n)) / denom
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
+    return max(0.0, center - half), min(1.0, center + half)
+
+
+def _is_int(value: Any) -> bool:
+    return not isinstance(value, bool) and isinstance(value, (int, np.integer))
+
+
+def _model_file(agent: str | Path) -> Path | None:
+    """The existing ``.zip`` that ``agent`` names (with or without the suffix), or None."""
+    path = Path(agent)
+    for candidate in (path, path.with_name(path.name + ".zip")):
+        if candidate.suffix == ".zip" and candidate.is_file():
+            return candidate
+    return None
+
+
+def load_model(path: Path) -> Any:
+    """``PPO.load(path)``, else ``SAC.load(path)`` (on the CPU); ValueError if neither opens it."""
+    import torch
+    from stable_baselines3 import PPO, SAC
+
+    torch.set_num_threads(1)
+    errors = []
+    for cls in (PPO, SAC):
+        try:
+            return cls.load(path, device="cpu")
+        except Exception as err:  # noqa: BLE001 - any failure means: try the next algorithm
+            errors.append(f"{cls.__name__}: {type(err).__name__}: {err}")
+    raise ValueError(f"cannot load {str(path)!r} as a PPO or SAC model ({'; '.join(errors)})")
+
+
+def read_model_card(path: Path) -> dict[str, Any]:
+    """The ``<model>.json`` next to ``path`` (same stem), or ``{}`` if there is none."""
+    card = path.with_suffix(".json")
+    if not card.is_file():
+        return {}
+    data = json.loads(card.read_text())
+    if not isinstance(data, dict) or not isinstance(data.get("env_kwargs", {}), dict):
+        raise ValueError(f"{str(card)!r}: expected a JSON object with an 'env_kwargs' object")
+    return data
+
+
+def _planner_agent(planner: str, env: gym.Env, seed: int, time_budget: float) -> Any:
+    """A :class:`PlannerAgent` for the episode ``env`` was just reset to."""
+    from agents.planner_agent import PlannerAgent
+
+    u = env.unwrapped
+    control = u.control
+    return PlannerAgent(
+        planner,
+        time_budget,
+        seed=seed,
+        objects=[u.task.object],
+        tables=[u.task.table],
+        max_joint_step=u.max_joint_step,
+        control_hz=1.0 / u.dt,
+        control_mode=u.control_mode,
+        max_tip_step=getattr(control, "max_tip_step", 0.01),
+        max_rot_step=getattr(control, "max_rot_step", 0.05),
+    )
+
+
+def evaluate(
+    agent: str | Path,
+    env_id: str,
+    *,
+    episodes: int,
+    seed: int = 10_000,
+    env_kwargs: dict[str, Any] | None = None,
+    time_budget: float = 10.0,
+    progress: bool = False,
+    max_steps: int | None = None,
+) -> dict[str, Any]:
+    """Run ``agent`` for ``episodes`` episodes of ``gym.make(env_id, **env_kwargs)`` with reset
+    seeds ``seed``, ``seed + 1``, ... and report how often it succeeded.
+
+    Args:
+        agent: a saved SB3 model (``.zip``; PPO, else SAC; acts with ``deterministic=True``)
+            or a planner name (``"regions"``, ``"cbirrt"``, ``"cbirrt2"``: a
+            :class:`~agents.planner_agent.PlannerAgent` per episode, seeded with the episode's
+            seed, that knows the episode's object and table).
+        env_id: one of ``slide_gym.DICT_ENV_IDS``.
+        episodes: how many episodes (>= 1).
+        seed: the first reset seed (default 10000: held out from collection seeds from 0).
+        env_kwargs: env arguments; for a model, those of its ``<model>.json`` card (written by
+            :func:`agents.bc.write_model_card`) are the defaults these override.
+        time_budget: the planner's seconds per episode (planners only).
+        progress: print one line per episode to stderr.
+        max_steps: stop an episode after this many steps and count it as a failure
+            (default: the env's time limit only).
+
+    Returns:
+        ``{"agent", "env_id", "env_kwargs", "episodes", "successes", "success_rate", "ci95",
+        "mean_length", "seeds", "results": [{"seed", "success", "length", "return"}],
+        "wall_time_s"}``.
+    """
+    if not _is_int(episodes) or episodes < 1:
+        raise ValueError(f"episodes must be a positive integer, got {episodes!r}")
+    if not _is_int(seed) or seed < 0:
+        raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
+    if max_steps is not None and (not _is_int(max_steps) or max_steps < 1):
+        raise ValueError(f"max_steps must be a positive integer or None, got {max_steps!r}")
+    if env_id not in DICT_ENV_IDS:
+        raise ValueError(f"env_id must be one of {', '.join(DICT_ENV_IDS)}, got {env_id!r}")
+    planner = agent if isinstance(agent, str) and agent in PLANNERS else None
+    model_path = None if planner else _model_file(agent)
+    if planner is None and model_path is None:
+        raise ValueError(
+            f"agent must be a planner ({', '.join(PLANNERS)}) or an existing SB3 model .zip "
+            f"file, got {str(agent)!r}"
+        )
+    kwargs: dict[str, Any] = {}
+    if planner:
+        check_time_budget(time_budget)
+    else:
+        assert model_path is not None
+        kwargs.update(read_model_card(model_path).get("env_kwargs", {}))
+    kwargs.update(env_kwargs or {})
+
+    model = load_model(model_path) if model_path is not None else None
+    env = gym.make(env_id, **kwargs)
+    wall = time.perf_counter()
+    results: list[dict[str, Any]] = []
+    try:
+        if model is not None:
+            for what, mine, theirs in (
+                ("observation", model.observation_space, env.observation_space),
+                ("action", model.action_space, env.action_space),
+            ):
+                if mine != theirs:
+                    raise ValueError(
+                        f"the model's {what} space does not match {env_id} with env_kwargs "
+                        f"{kwargs}: {mine} vs {theirs}"
+                    )
+        for i in range(int(episodes)):
+            ep_seed = int(seed) + i
+            obs, info = env.reset(seed=ep_seed)
+            expert = _planner_agent(planner, env, ep_seed, time_budget) if planner else None
+            steps, total, terminated, truncated = 0, 0.0, False, False
+            try:
+                while not (terminated or truncated):
+                    if max_steps is not None and steps >= max_steps:
+                        break
+                    if expert is not None:
+                        action, _ = expert.predict(obs, episode_start=np.array([steps == 0]))
+                    else:
+                        action, _ = model.predict(obs, deterministic=True)
+                    obs, reward, terminated, truncated, info = env.step(action)
+                    steps += 1
+                    total += float(reward)
+            finally:
+                if expert is not None:
+                    expert.close()
+            # the envs terminate on success: an episode cut by max_steps has not succeeded
+            success = bool((terminated or truncated) and info["is_success"])
+            results.append({"seed": ep_seed, "success": success, "length": steps, "return": total})
+            if progress:
+                done = sum(r["success"] for r in results)
+                print(
+                    f"episode {i + 1}/{episodes} seed {ep_seed}: "
+                    f"{'success' if success else 'failure'} after {steps} steps "
+                    f"({done}/{i + 1} so far)",
+                    file=sys.stderr,
+                    flush=True,
+                )
+    finally:
+        env.close()
+    k = sum(r["success"] for r in results)
+    lo, hi = wilson_interval(k, len(results))
+    return {
+        "agent": str(agent),
+        "env_id": env_id,
+        "env_kwargs": kwargs,
+        "episodes": len(results),
+        "successes": k,
+        "success_rate": k / len(results),
+        "ci95": [lo, hi],
+        "mean_length": float(np.mean([r["length"] for r in results])),
+        "seeds": [r["seed"] for r in results],
+        "results": results,
+        "wall_time_s": time.perf_counter() - wall,
+    }

@@ -1,0 +1,285 @@
+"""``slide-gym collect | replay | export | train-bc | evaluate``: demonstration datasets and
+the agents learned from them."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+from slide_gym import DICT_ENV_IDS, EXPERT_ENV_ID
+from slide_gym.cli.args import add_backend, add_choice, add_command, check_output
+
+PLANNER_AGENTS = ("regions", "cbirrt", "cbirrt2")
+
+
+def _cmd_collect(args: argparse.Namespace) -> int:
+    from slide_gym.datasets.collect import collect
+    from slide_gym.datasets.config import CollectConfig
+
+    config = CollectConfig(
+        env_id=args.env,
+        agent=args.agent,
+        object=args.object,
+        table=args.table,
+        scale=args.scale,
+        thickness=args.thickness,
+        obs_mode=args.obs_mode,
+        control_mode=args.control_mode,
+        time_budget=args.time_budget,
+        seed=args.seed,
+        only_success=args.only_success,
+    )
+    summary = collect(
+        config,
+        args.episodes,
+        args.dataset_id,
+        workers=args.workers,
+        backend=args.backend,
+        address=args.ray_address,
+    )
+    print(json.dumps(summary, indent=2))
+    return 0
+
+
+def _cmd_replay(args: argparse.Namespace) -> int:
+    from slide_gym.datasets.replay import replay
+
+    if args.video is not None:
+        check_output(args.video, (".mp4", ".gif"), "--video")
+    results = replay(args.dataset_id, episodes=args.episodes, mode=args.mode, video=args.video)
+    if args.json:
+        print(json.dumps([r.to_json() for r in results], indent=2))
+    else:
+        for r in results:
+            state = "matches" if r.matched else f"differs from step {r.first_mismatch}"
+            print(
+                f"episode {r.episode} (seed {r.seed}, {r.steps} steps): {state}, "
+                f"largest difference {r.max_error:.3g}"
+            )
+        matched = sum(r.matched for r in results)
+        print(f"{matched} of {len(results)} episodes match ({args.mode} replay)")
+    return 0 if all(r.matched for r in results) else 1
+
+
+def _cmd_export(args: argparse.Namespace) -> int:
+    from slide_gym.datasets.lerobot import export_lerobot
+    from slide_gym.datasets.store import dataset_metadata, load
+
+    dataset = load(args.dataset_id)
+    meta = dataset_metadata(dataset)
+    env = dataset.recover_environment()
+    try:
+        fps = float(env.metadata.get("render_fps", 20))
+    finally:
+        env.close()
+    goal = (
+        "slide it over the table edge"
+        if "Grasp" not in dataset.spec.env_spec.id
+        else ("slide it over the table edge, grasp it and lift it")
+    )
+    config = meta.get("config", {})
+    task = f"Press the {config.get('object', 'thin')} plate with a fingertip, {goal}."
+    summary = export_lerobot(dataset, args.out, task=task, fps=fps)
+    print(json.dumps({"out": str(args.out), "format": args.format, **summary}, indent=2))
+    return 0
+
+
+def _cmd_train_bc(args: argparse.Namespace) -> int:
+    from agents.bc import train_bc, write_model_card
+    from slide_gym.datasets.store import dataset_metadata, load
+
+    check_output(args.out, (".zip",), "--out")
+    dataset = load(args.dataset_id)
+    env = dataset.recover_environment()
+    if args.env is not None and args.env != env.spec.id:
+        env.close()
+        raise ValueError(
+            f"--env {args.env} differs from the dataset's env {env.spec.id}; the policy must "
+            "act in the env its demonstrations come from"
+        )
+    try:
+        model, stats = train_bc(
+            dataset, steps=args.steps, batch_size=args.batch_size, seed=args.seed, env=env
+        )
+        model.save(args.out)
+    finally:
+        env.close()
+    meta = dataset_metadata(dataset)
+    card = write_model_card(
+        args.out,
+        env.spec.id,
+        dict(meta.get("env_kwargs") or {}),
+        {"dataset_id": args.dataset_id, "training": stats},
+    )
+    print(json.dumps({"model": str(args.out), "card": str(card), **stats}, indent=2))
+    return 0
+
+
+def _cmd_evaluate(args: argparse.Namespace) -> int:
+    from agents.evaluate import evaluate
+
+    env_kwargs: dict[str, Any] = {}
+    for name in ("object", "table"):
+        if getattr(args, name) is not None:
+            env_kwargs[name] = getattr(args, name)
+    result = evaluate(
+        args.agent,
+        args.env,
+        episodes=args.episodes,
+        seed=args.seed,
+        env_kwargs=env_kwargs,
+        time_budget=args.time_budget,
+        progress=not args.json,
+    )
+    if args.json:
+        print(json.dumps(result, indent=2))
+    else:
+        lo, hi = result["ci95"]
+        print(
+            f"{result['agent']} in {result['env_id']}: {result['successes']} of "
+            f"{result['episodes']} succeeded ({100 * result['success_rate']:.0f} %, 95 % "
+            f"interval {100 * lo:.0f}-{100 * hi:.0f} %), mean length "
+            f"{result['mean_length']:.0f} steps"
+        )
+    return 0
+
+
+def add_parsers(sub: Any) -> None:
+    """Register the dataset commands."""
+    envs = ", ".join(DICT_ENV_IDS)
+    p = add_command(
+        sub,
+        "collect",
+        "record expert episodes into a Minari dataset (parallel, resumable)",
+        "Run the planner expert for episodes with reset seeds SEED, SEED+1, ... and store "
+        "them as a Minari dataset (observations, actions, rewards, and per step the infos "
+        "with infos['sim_state']; per episode the reset seed and options and the run "
+        "record). Each finished episode is saved at once, so Ctrl-C or a kill loses only "
+        "the episodes in flight: the same command again continues to N. The same dataset "
+        "id with another configuration is refused. Datasets live in Minari's folder "
+        "(MINARI_DATASETS_PATH, default ~/.minari/datasets) and open with "
+        "minari.load_dataset(ID).",
+        [
+            "slide-gym collect --env SlideGym/TopSlide-v0 --episodes 20 "
+            "--dataset-id slide-gym/square-slide-v0",
+            "slide-gym collect --env SlideGym/TopSlideGrasp-v0 --object random --table random "
+            "--episodes 100 --only-success --workers 2 --dataset-id slide-gym/catalog-grasp-v0",
+        ],
+    )
+    add_choice(p, "--env", DICT_ENV_IDS, "env", f"one of {envs}", EXPERT_ENV_ID, "ID")
+    add_choice(p, "--agent", PLANNER_AGENTS, "agent", "the expert's planner", "regions", "NAME")
+    p.add_argument("--episodes", type=int, required=True, metavar="N", help="episodes to keep")
+    p.add_argument(
+        "--dataset-id", required=True, metavar="NAMESPACE/NAME-vK", help="the Minari dataset id"
+    )
+    p.add_argument(
+        "--object",
+        default="square",
+        metavar="NAME",
+        help="catalog name, .json file, random (a catalog object per episode) or procedural",
+    )
+    p.add_argument(
+        "--table", default="square", metavar="NAME", help="catalog name, .json file or random"
+    )
+    p.add_argument("--scale", type=float, default=1.0, metavar="S", help="object scale factor")
+    p.add_argument("--thickness", type=float, metavar="M", help="plate thickness in m")
+    p.add_argument("--obs-mode", default="state", choices=("state", "rgbd"), help="env obs mode")
+    p.add_argument(
+        "--control-mode",
+        default="joint_delta",
+        choices=("joint_delta", "ee_delta"),
+        help="env control mode",
+    )
+    p.add_argument(
+        "--time-budget", type=float, default=10.0, metavar="S", help="planning s per episode"
+    )
+    p.add_argument("--seed", type=int, default=0, metavar="N", help="first reset seed")
+    p.add_argument("--workers", type=int, metavar="W", help="parallel episodes (default: cores)")
+    add_backend(p)
+    p.add_argument(
+        "--only-success",
+        action="store_true",
+        help="keep only successful episodes, running further seeds until N succeed",
+    )
+    p.set_defaults(func=_cmd_collect)
+
+    p = add_command(
+        sub,
+        "replay",
+        "replay a dataset's episodes and check them against the record",
+        "Replay episodes in the dataset's env. --mode actions resets with each episode's "
+        "seed and options and steps its actions: every observation must match bit for bit. "
+        "--mode states restores each step's infos['sim_state'] and steps its action: PyBullet "
+        "keeps contact caches no state vector holds, so poses must match within a "
+        "tolerance (slide_gym.datasets.replay.STATE_TOLERANCE). Exit 0 only if every "
+        "episode matches (1 otherwise).",
+        [
+            "slide-gym replay slide-gym/square-slide-v0",
+            "slide-gym replay slide-gym/square-slide-v0 --episodes 2 --video replay.mp4",
+        ],
+    )
+    p.add_argument("dataset_id", metavar="DATASET_ID", help="a local Minari dataset id")
+    p.add_argument("--episodes", type=int, metavar="K", help="the first K episodes (default: all)")
+    p.add_argument("--mode", default="actions", choices=("actions", "states"), help="see above")
+    p.add_argument("--video", type=Path, metavar="OUT", help="render the replay to .mp4 or .gif")
+    p.add_argument("--json", action="store_true", help="print the results as JSON")
+    p.set_defaults(func=_cmd_replay)
+
+    p = add_command(
+        sub,
+        "export",
+        "export a dataset to the LeRobot v3.0 layout",
+        "Write the dataset as a LeRobotDataset v3.0 folder (parquet via pyarrow; the Dict "
+        "observation flattened into observation.state, keys in sorted order), without "
+        "needing the lerobot package.",
+        ["slide-gym export slide-gym/square-slide-v0 --format lerobot --out exports/square"],
+    )
+    p.add_argument("dataset_id", metavar="DATASET_ID", help="a local Minari dataset id")
+    p.add_argument("--format", default="lerobot", choices=("lerobot",), help="output format")
+    p.add_argument("--out", type=Path, required=True, metavar="DIR", help="a new folder")
+    p.set_defaults(func=_cmd_export)
+
+    p = add_command(
+        sub,
+        "train-bc",
+        "behaviour cloning from a dataset into a Stable-Baselines3 policy",
+        "Fit an SB3 PPO MultiInputPolicy to the dataset's (observation, action) pairs by "
+        "maximum likelihood and save it (PPO.load opens it); MODEL.json next to it records "
+        "the env and its arguments, which `slide-gym evaluate MODEL.zip` uses.",
+        ["slide-gym train-bc slide-gym/square-slide-v0 --out models/bc.zip --steps 5000"],
+    )
+    p.add_argument("dataset_id", metavar="DATASET_ID", help="a local Minari dataset id")
+    p.add_argument("--out", type=Path, required=True, metavar="MODEL.zip", help="model file")
+    p.add_argument("--steps", type=int, default=5000, metavar="N", help="gradient steps")
+    p.add_argument("--batch-size", type=int, default=256, metavar="B", help="pairs per step")
+    p.add_argument("--env", metavar="ENV_ID", help="must be the dataset's env (a check)")
+    p.add_argument("--seed", type=int, default=0, metavar="N", help="training seed")
+    p.set_defaults(func=_cmd_train_bc)
+
+    p = add_command(
+        sub,
+        "evaluate",
+        "success rate of a saved policy or a planner agent",
+        "Run episodes with reset seeds SEED, SEED+1, ... (default 10000: held out from "
+        "collections, which start at 0) and print the success rate with a 95 % Wilson "
+        "interval and the mean episode length.",
+        [
+            "slide-gym evaluate models/bc.zip --env SlideGym/TopSlide-v0 --episodes 20",
+            "slide-gym evaluate regions --env SlideGym/TopSlide-v0 --episodes 20 --json",
+        ],
+    )
+    p.add_argument("agent", metavar="MODEL.zip|regions|cbirrt|cbirrt2", help="what acts")
+    add_choice(p, "--env", DICT_ENV_IDS, "env", f"one of {envs}", EXPERT_ENV_ID, "ID")
+    p.add_argument("--episodes", type=int, required=True, metavar="N", help="episodes")
+    p.add_argument("--seed", type=int, default=10_000, metavar="S", help="first reset seed")
+    p.add_argument(
+        "--object", metavar="NAME", help="env object (default: the model's, else the env's)"
+    )
+    p.add_argument("--table", metavar="NAME", help="env table (as --object)")
+    p.add_argument(
+        "--time-budget", type=float, default=10.0, metavar="S", help="planner agents' budget"
+    )
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.set_defaults(func=_cmd_evaluate)

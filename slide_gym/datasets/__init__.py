@@ -1,0 +1,1 @@
+"""Demonstration datasets: collect, replay, merge and export (Minari)."""

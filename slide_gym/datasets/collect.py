@@ -1,0 +1,241 @@
+"""``slide-gym collect``: expert episodes into a Minari dataset, in parallel and resumably.
+
+Each episode runs as one case of :func:`slide_gym.bench.jobs.run_cases` (a process pool, or
+Ray tasks). As each finishes, this process writes it to its own file in the dataset's staging
+folder (``<Minari root>/.slide_gym/<id>/episodes/seed-SEED.npz``, atomically) and then a line
+to ``episodes.jsonl`` there; the seed is an episode's identity. A kill loses only the
+episodes in flight, and the same command again continues to N. When all are in, the staged
+episodes (in seed order) are built into the Minari dataset; the staging folder stays, so a
+later run with a larger N only records the new seeds.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+import sys
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from slide_gym.bench.jobs import check_backend, load_results, run_cases
+from slide_gym.datasets.config import CollectConfig, check_dataset_id
+from slide_gym.datasets.recording import RecordedEpisode, record_episode
+from slide_gym.datasets.store import build_dataset, dataset_metadata
+
+MAX_TRIES_PER_EPISODE = 20
+"""``only_success`` gives up after this many episodes per one asked for."""
+
+
+def staging_dir(dataset_id: str) -> Path:
+    """Where the episodes of ``dataset_id`` are staged (hidden from Minari's listing)."""
+    import minari
+
+    return minari.storage.get_dataset_path() / ".slide_gym" / check_dataset_id(dataset_id)
+
+
+def collect_case(case: dict[str, Any]) -> dict[str, Any]:
+    """One episode (a job-runner case ``{"seed", "config"}``), its bytes in ``payload``."""
+    config = CollectConfig.from_json(case["config"])
+    episode = record_episode(config, int(case["seed"]))
+    return {
+        "success": episode.success,
+        "steps": episode.steps,
+        "return": float(episode.rewards.sum()),
+        "planning_time_s": episode.record.get("planning_time_s"),
+        "wall_time_s": episode.record.get("wall_time_s"),
+        "payload": episode.to_bytes(),
+    }
+
+
+def collect(
+    config: CollectConfig,
+    episodes: int,
+    dataset_id: str,
+    *,
+    workers: int | None = None,
+    backend: str = "local",
+    address: str | None = None,
+) -> dict[str, Any]:
+    """Collect ``episodes`` episodes of ``config`` into Minari dataset ``dataset_id`` (see
+    the module docstring); return a summary. ``only_success`` runs further seeds until that
+    many succeeded (at most :data:`MAX_TRIES_PER_EPISODE` per episode asked for)."""
+    import minari
+
+    check_dataset_id(dataset_id)
+    if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
+        raise ValueError(f"--episodes must be a whole number >= 1, got {episodes!r}")
+    if workers is not None and workers < 1:
+        raise ValueError(f"--workers must be >= 1, got {workers}")
+    check_backend(backend, address)
+    stage = staging_dir(dataset_id)
+    _claim(stage, config, dataset_id)
+    progress = stage / "episodes.jsonl"
+    episode_dir = stage / "episodes"
+    episode_dir.mkdir(parents=True, exist_ok=True)
+    _forget_missing(progress, episode_dir)
+
+    def store(case: dict[str, Any], result: dict[str, Any]) -> dict[str, Any]:
+        path = episode_dir / f"seed-{case['seed']:08d}.npz"
+        tmp = path.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_bytes(result.pop("payload"))
+        os.replace(tmp, path)
+        return result
+
+    def run(seeds: range) -> list[dict[str, Any]]:
+        cases = [{"seed": s, "config": config.to_json()} for s in seeds]
+        return run_cases(
+            collect_case,
+            cases,
+            progress,
+            workers,
+            desc=dataset_id,
+            backend=backend,
+            address=address,
+            store=store,
+            success_key="success",
+        )
+
+    start = config.seed
+    rows = run(range(start, start + episodes))
+    if config.only_success:
+        limit = start + MAX_TRIES_PER_EPISODE * episodes
+        end = start + episodes
+        while sum(r["success"] for r in rows) < episodes and end < limit:
+            wins = sum(r["success"] for r in rows)
+            rate = max(wins / len(rows), 0.1)
+            end = min(limit, end + max(1, math.ceil((episodes - wins) / rate)))
+            rows = run(range(start, end))
+    by_seed = {r["case"]["seed"]: r for r in rows}
+    seeds = sorted(by_seed)
+    if config.only_success:
+        seeds = [s for s in seeds if by_seed[s]["success"]][:episodes]
+        if len(seeds) < episodes:
+            print(
+                f"only {len(seeds)} of {episodes} episodes succeeded in {len(by_seed)} tries; "
+                "the dataset keeps those",
+                file=sys.stderr,
+            )
+    if not seeds:
+        raise ValueError(f"no episode to keep: none of {len(by_seed)} succeeded")
+    tried = [by_seed[s] for s in sorted(by_seed)]
+    return _build(dataset_id, config, episode_dir, seeds, tried, minari)
+
+
+def _build(
+    dataset_id: str,
+    config: CollectConfig,
+    episode_dir: Path,
+    seeds: list[int],
+    tried: list[dict[str, Any]],
+    minari: Any,
+) -> dict[str, Any]:
+    """Build (or keep, if it already holds exactly ``seeds``) the dataset; its summary."""
+    from agents.params import EXPERT_SLIDE_PARAMS, ExpertParams
+    from slide_gym.experiments.version import code_version
+
+    successes = sum(r["success"] for r in tried)
+    kept = [r for r in tried if r["case"]["seed"] in set(seeds)]
+    returns = [r["return"] for r in kept]
+    steps = sum(r["steps"] for r in kept)
+    metadata = {
+        "config": config.to_json(),
+        "env_id": config.env_id,
+        "env_kwargs": config.env_kwargs(),
+        "agent": {
+            "planner": config.agent,
+            "time_budget_s": config.time_budget,
+            "expert_params": dataclasses.asdict(ExpertParams()),
+            "slide_params": dataclasses.asdict(EXPERT_SLIDE_PARAMS),
+        },
+        "code_version": code_version(),
+        "seeds": seeds,
+        "episodes_run": len(tried),
+        "expert_successes": successes,
+        "expert_success_rate": successes / len(tried),
+        "mean_return": float(np.mean(returns)),
+        "total_steps": steps,
+    }
+    existing = None
+    if dataset_id in minari.list_local_datasets():
+        existing = minari.load_dataset(dataset_id)
+        if dataset_metadata(existing).get("seeds") != seeds:
+            existing = None
+    if existing is None:
+        env = gym.make(config.env_id, **config.env_kwargs())
+        try:
+            existing = build_dataset(
+                dataset_id,
+                (RecordedEpisode.from_bytes((episode_dir / _name(s)).read_bytes()) for s in seeds),
+                env,
+                metadata,
+                algorithm_name=f"slide-gym expert ({config.agent} planner)",
+                ref_max_score=metadata["mean_return"],
+                description=(
+                    f"Planner-expert episodes in {config.env_id} ({config.object} on the "
+                    f"{config.table} table); per episode the reset seed and options, per step "
+                    "infos['sim_state'] (TopSlideEnv.get_state)."
+                ),
+            )
+        finally:
+            env.close()
+    size = sum(f.stat().st_size for f in Path(existing.storage.data_path).rglob("*") if f.is_file())
+    return {
+        "dataset_id": dataset_id,
+        "path": str(existing.storage.data_path.parent),
+        "episodes": len(seeds),
+        "steps": steps,
+        "episodes_run": len(tried),
+        "expert_success_rate": metadata["expert_success_rate"],
+        "bytes_per_step": size / max(steps, 1),
+        "planning_time_s_median": _median([r.get("planning_time_s") for r in kept]),
+        "wall_time_s_median": _median([r.get("wall_time_s") for r in kept]),
+    }
+
+
+def _claim(stage: Path, config: CollectConfig, dataset_id: str) -> None:
+    """Tie the staging folder to ``config``; a ValueError if the id is another collection's."""
+    import minari
+
+    path = stage / "config.json"
+    if path.exists():
+        theirs = CollectConfig.from_json(json.loads(path.read_text()))
+        diff = config.differences(theirs)
+        if diff:
+            raise ValueError(
+                f"dataset {dataset_id!r} was collected with another configuration "
+                f"({'; '.join(diff)}, new != existing); use a new id (e.g. bump -vK)"
+            )
+        return
+    if dataset_id in minari.list_local_datasets():
+        raise ValueError(
+            f"dataset {dataset_id!r} exists and was not collected here (no staging folder "
+            f"{stage}); use a new id, or delete it with `minari delete {dataset_id}`"
+        )
+    stage.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(config.to_json(), indent=2))
+    os.replace(tmp, path)
+
+
+def _forget_missing(progress: Path, episode_dir: Path) -> None:
+    """Drop progress lines whose episode file is gone, so those seeds run again."""
+    rows = load_results(progress)
+    keep = [r for r in rows if (episode_dir / _name(r["case"]["seed"])).exists()]
+    if len(keep) != len(rows):
+        tmp = progress.with_suffix(".tmp")
+        tmp.write_text("".join(json.dumps(r) + "\n" for r in keep))
+        os.replace(tmp, progress)
+
+
+def _name(seed: int) -> str:
+    return f"seed-{seed:08d}.npz"
+
+
+def _median(values: list[Any]) -> float | None:
+    vals = [float(v) for v in values if v is not None]
+    return float(np.median(vals)) if vals else None

@@ -1,0 +1,107 @@
+"""What a demonstration dataset is collected from: :class:`CollectConfig`, and dataset ids.
+
+A configuration is the identity of a dataset apart from its size: collecting more episodes
+into the same id continues it, and the same id with another configuration is refused.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from slide_gym import DICT_ENV_IDS
+from slide_gym.envs.control import CONTROL_MODES
+from slide_gym.envs.observation import OBS_MODES
+from slide_gym.envs.scene import SceneChoice
+from slide_gym.planning.api import PLANNERS
+from slide_gym.planning.result import check_time_budget
+
+DATASET_ID = re.compile(r"^[A-Za-z0-9_.-]{2,}/[A-Za-z0-9_.-]+-v\d+$")
+
+
+def check_dataset_id(dataset_id: str) -> str:
+    """``dataset_id`` if it reads ``NAMESPACE/NAME-vK`` (Minari's form), else a ValueError."""
+    if not isinstance(dataset_id, str) or not DATASET_ID.match(dataset_id):
+        raise ValueError(
+            f"dataset id must read NAMESPACE/NAME-vK (namespace of 2+ letters, digits, '_.-'; "
+            f"K a version number), e.g. slide-gym/square-expert-v0; got {dataset_id!r}"
+        )
+    return dataset_id
+
+
+@dataclass(frozen=True)
+class CollectConfig:
+    """The environment and the agent of a dataset.
+
+    Args:
+        env_id: one of :data:`slide_gym.DICT_ENV_IDS`.
+        agent: the planner the expert uses (``"regions"``, ``"cbirrt"``, ``"cbirrt2"``).
+        object, table: catalog names, ``.json`` paths (stored absolute), or ``"random"``
+            (``"procedural"`` for objects), as the env takes them.
+        scale, thickness: the env's object scale and thickness (None: each object's own).
+        obs_mode, control_mode: the env's observation and control modes.
+        time_budget: the expert's planning seconds per episode.
+        seed: the first reset seed; episode i of the collection is reset with ``seed + i``.
+        only_success: keep only the episodes the expert solved (then more seeds are run).
+    """
+
+    env_id: str
+    agent: str = "regions"
+    object: str = "square"
+    table: str = "square"
+    scale: float = 1.0
+    thickness: float | None = None
+    obs_mode: str = "state"
+    control_mode: str = "joint_delta"
+    time_budget: float = 10.0
+    seed: int = 0
+    only_success: bool = False
+
+    def __post_init__(self) -> None:
+        if self.env_id not in DICT_ENV_IDS:
+            raise ValueError(
+                f"env {self.env_id!r} is not a slide-gym env with Dict observations; "
+                f"choose from {', '.join(DICT_ENV_IDS)}"
+            )
+        if self.agent not in PLANNERS:
+            raise ValueError(f"agent must be one of {', '.join(PLANNERS)}, got {self.agent!r}")
+        if self.obs_mode not in OBS_MODES:
+            raise ValueError(f"obs_mode must be one of {', '.join(OBS_MODES)}")
+        if self.control_mode not in CONTROL_MODES:
+            raise ValueError(f"control_mode must be one of {', '.join(CONTROL_MODES)}")
+        check_time_budget(self.time_budget)
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
+            raise ValueError(f"seed must be a non-negative integer, got {self.seed!r}")
+        if not (isinstance(self.scale, (int, float)) and math.isfinite(self.scale)):
+            raise ValueError(f"scale must be a positive number, got {self.scale!r}")
+        # JSON shapes are stored by absolute path, so the dataset's env spec finds them again.
+        for kind in ("object", "table"):
+            spec = getattr(self, kind)
+            if isinstance(spec, str) and spec.lower().endswith(".json"):
+                object.__setattr__(self, kind, str(Path(spec).expanduser().resolve()))
+        SceneChoice(self.object, self.table, self.scale, self.thickness)  # ValueError if bad
+
+    def env_kwargs(self) -> dict[str, Any]:
+        """The keyword arguments of ``gym.make(env_id, ...)`` (JSON values only)."""
+        kwargs: dict[str, Any] = {"object": self.object, "table": self.table, "scale": self.scale}
+        if self.thickness is not None:
+            kwargs["thickness"] = self.thickness
+        kwargs |= {"obs_mode": self.obs_mode, "control_mode": self.control_mode}
+        return kwargs
+
+    def to_json(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> CollectConfig:
+        fields = {f.name for f in dataclasses.fields(cls)}
+        return cls(**{k: v for k, v in data.items() if k in fields})
+
+    def differences(self, other: CollectConfig) -> list[str]:
+        """``"name: mine != theirs"`` for every field that differs."""
+        a, b = self.to_json(), other.to_json()
+        return [f"{k}: {a[k]!r} != {b[k]!r}" for k in a if a[k] != b[k]]

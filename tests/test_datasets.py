@@ -201,3 +201,30 @@ def test_ray_backend_collects_on_a_local_instance(minari_root):
     args = ["--episodes", "2", "--workers", "2", "--backend", "ray"]
     assert _collect(*args, "--dataset-id", "test/ray-v0") == 0
     assert [e.seed for e in read_episodes(load("test/ray-v0"))] == [0, 1]
+
+
+def test_json_procedural_and_rgbd_collections_replay(minari_root, tmp_path, capsys):
+    """Every kind of plate a collection takes, and lossless images."""
+    card = tmp_path / "card.json"
+    card.write_text(
+        json.dumps({"name": "card", "vertices": [[0, 0], [0.085, 0], [0.085, 0.054], [0, 0.054]]})
+    )
+    runs = {
+        "test/json-v0": ["--object", str(card)],
+        "test/procedural-v0": ["--object", "procedural", "--seed", "3"],
+        "test/rgbd-v0": ["--obs-mode", "rgbd"],
+    }
+    for dataset_id, extra in runs.items():
+        assert (
+            _collect("--episodes", "1", "--workers", "1", "--dataset-id", dataset_id, *extra) == 0
+        )
+        assert main(["replay", dataset_id]) == 0
+    capsys.readouterr()
+    json_episode = next(read_episodes(load("test/json-v0")))
+    assert json_episode.options["object"] == str(card.resolve())
+    procedural = next(read_episodes(load("test/procedural-v0")))
+    assert procedural.seed == 3 and procedural.options["object"] == "procedural"
+    rgbd = load("test/rgbd-v0")
+    image = next(read_episodes(rgbd)).observations["scene_rgb"]
+    assert image.dtype == np.uint8 and image.shape[1:] == (128, 128, 3)
+    assert not rgbd.storage.metadata["jpeg_encoding"]

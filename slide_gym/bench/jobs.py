@@ -111,11 +111,11 @@ def run_cases(
     def finish(f: Any, bar: Any, case: Case, result: dict[str, Any]) -> None:
         row = store(case, result) if store is not None else result
         _write(f, case, row)
-        bar.update()
         if success_key is not None:
             wins[0] += bool(row.get(success_key))
             wins[1] += 1
-            bar.set_postfix_str(f"{success_key} {wins[0]}/{wins[1]}")
+            bar.set_postfix_str(f"{success_key} {wins[0]}/{wins[1]}", refresh=False)
+        bar.update()
 
     try:
         with out.open("a") as f, tqdm(total=len(todo), desc=desc, file=sys.stderr) as bar:

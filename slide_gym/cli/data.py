@@ -54,9 +54,10 @@ def _cmd_replay(args: argparse.Namespace) -> int:
     else:
         for r in results:
             state = "matches" if r.matched else f"differs from step {r.first_mismatch}"
+            worst = ", ".join(f"{k} {v:.2g}" for k, v in r.max_errors.items() if v > 0)
             print(
-                f"episode {r.episode} (seed {r.seed}, {r.steps} steps): {state}, "
-                f"largest difference {r.max_error:.3g}"
+                f"episode {r.episode} (seed {r.seed}, {r.steps} steps): {state}; "
+                f"largest differences: {worst or 'none'}"
             )
         matched = sum(r.matched for r in results)
         print(f"{matched} of {len(results)} episodes match ({args.mode} replay)")

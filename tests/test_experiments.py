@@ -28,9 +28,10 @@ def _values(cases: list[dict[str, Any]], key: str) -> set[Any]:
 
 
 def test_full_sizes_follow_the_issue() -> None:
-    fig10, fig11, fig12 = (experiment_cases(n, "v") for n in ("fig10", "fig11", "fig12"))
-    assert (len(fig10), len(fig11), len(fig12)) == (3600, 2500, 500)
-    for cases in (fig10, fig11, fig12):
+    names = ("fig10", "fig11", "fig12", "restart")
+    fig10, fig11, fig12, restart = (experiment_cases(n, "v") for n in names)
+    assert (len(fig10), len(fig11), len(fig12), len(restart)) == (3600, 3000, 500, 600)
+    for cases in (fig10, fig11, fig12, restart):
         assert _values(cases, "time_budget") == {60.0} and _values(cases, "code_version") == {"v"}
     assert _values(fig10, "object") == PAPER | {"Y", "A", "L", "E"}
     assert _values(fig10, "table") == {"square", "round", "long", "triangle"}
@@ -47,16 +48,22 @@ def test_full_sizes_follow_the_issue() -> None:
         ("regions", "[0.005, 0.025]"): same,  # dZ* = 2 cm
         ("cbirrt", "[0.005, 0.025]"): same,
         ("cbirrt2", "[0.005, 0.025]"): same,
+        ("cbirrt-norestart", "[0.005, 0.025]"): same,
     }
     assert _values(fig11, "table") == _values(fig12, "table") == {"square"}
     assert _values(fig12, "n_star") == {1, 10, 100, 1000, 10000}
     assert _values(fig12, "dz") == {json.dumps(DZ_2CM)} and _values(fig12, "seed") == set(range(20))
     assert fig10[0]["seed"] == 0 and fig10[-1]["seed"] == 49  # the pose is the outer loop
+    sweep = {(c["planner"], c["restart_iterations"]) for c in restart}
+    assert sweep == {("cbirrt", r) for r in (25, 50, 100, 200, 400)} | {("cbirrt-norestart", 100)}
+    assert _values(restart, "dz") == {json.dumps(DZ_2CM)} and _values(restart, "table") == {
+        "square"
+    }
 
 
 def test_quick_sizes_are_a_smoke_test() -> None:
     sizes = {n: len(experiment_cases(n, "v", quick=True)) for n in specs.EXPERIMENTS}
-    assert sizes == {"fig10": 4, "fig11": 10, "fig12": 4}
+    assert sizes == {"fig10": 4, "fig11": 12, "fig12": 4, "restart": 12}
     for name in specs.EXPERIMENTS:
         cases = experiment_cases(name, "v", quick=True)
         assert _values(cases, "time_budget") == {2.0} and _values(cases, "table") == {"square"}
@@ -69,22 +76,22 @@ def test_fig11_quick_writes_a_row_per_query_and_resumes(
     summary = run.run_experiment("fig11", quick=True, workers=1, out=tmp_path)
     stamp = version.code_version()
     path = tmp_path / f"fig11-quick-{stamp}.jsonl"
-    assert summary["file"] == str(path) and summary["runs"] == summary["of"] == 10
+    assert summary["file"] == str(path) and summary["runs"] == summary["of"] == 12
     rows = [json.loads(line) for line in path.read_text().splitlines()]
-    assert len(rows) == 10 and [p.name for p in tmp_path.iterdir()] == [path.name]
+    assert len(rows) == 12 and [p.name for p in tmp_path.iterdir()] == [path.name]
     for row in rows:
         assert row.keys() >= ROW_KEYS and not {"path", "transfer_path"} & row.keys()
         assert row["code_version"] == row["case"]["code_version"] == stamp
         assert row["experiment"] == "fig11"
         assert row["status"] in {"solved", "timeout", "infeasible"}
-    assert {r["planner"] for r in rows} == {"regions", "cbirrt", "cbirrt2"}
+    assert {r["planner"] for r in rows} == {"regions", "cbirrt", "cbirrt2", "cbirrt-norestart"}
 
     def refuse(case: dict[str, Any]) -> dict[str, Any]:
         raise AssertionError("a finished query ran again")
 
     monkeypatch.setattr(run, "experiment_case", refuse)
     again = run.run_experiment("fig11", quick=True, workers=1, out=tmp_path)
-    assert again["runs"] == 10 and len(path.read_text().splitlines()) == 10
+    assert again["runs"] == 12 and len(path.read_text().splitlines()) == 12
 
 
 def _fake_case(case: dict[str, Any]) -> dict[str, Any]:
@@ -142,9 +149,12 @@ def _refuse(*args: object, **kwargs: object) -> Any:
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["nope"], "unknown experiment 'nope'; choose from fig10, fig11, fig12, all, "),
+        (["nope"], "unknown experiment 'nope'; choose from fig10, fig11, fig12, restart, all, "),
         (["fig10", "--ray-address", "10.0.0.1:6379"], "--ray-address goes with --backend ray"),
-        (["relaxation"], "'relaxation' is not implemented yet; run one of fig10, fig11, fig12"),
+        (
+            ["relaxation"],
+            "'relaxation' is not implemented yet; run one of fig10, fig11, fig12, restart",
+        ),
         (["all", "--workers", "0"], "--workers must be >= 1"),
     ],
 )

@@ -18,6 +18,7 @@ from typing import Any
 from slide_gym.bench.jobs import Case
 from slide_gym.bench.plan import OBJECTS as PAPER_OBJECTS
 from slide_gym.geometry import TABLE_NAMES
+from slide_gym.planning.params import SlideParams
 
 LETTERS = ("Y", "A", "L", "E")
 """fig10's further group of objects."""
@@ -31,8 +32,11 @@ N_STAR = 100
 """N* of every experiment but fig12 (the paper's default)."""
 N_STARS = (1, 10, 100, 1000, 10000)
 """fig12's N*."""
-BASELINES = ("cbirrt", "cbirrt2")
-"""fig11's other planners, at dZ* = :data:`DZ_STAR` on the same problems."""
+BASELINES = ("cbirrt", "cbirrt2", "cbirrt-norestart")
+"""fig11's other planners, at dZ* = :data:`DZ_STAR` on the same problems (``cbirrt`` with
+its default restart period; ``cbirrt-norestart`` for reference)."""
+RESTART_PERIODS = (25, 50, 100, 200, 400)
+"""The ``restart`` sweep's cbirrt restart periods (search iterations per start/goal pair)."""
 TABLE = "square"
 """The table of fig11 and fig12."""
 SCALES = (1.0, 0.5)
@@ -45,11 +49,12 @@ QUICK_OBJECTS = ("square", "L")
 """``--quick``: one paper object and one letter, one start pose each, square table only."""
 QUICK_N_STARS = (1, 100)
 """fig12's N* with ``--quick``."""
-POSES = {"fig10": 50, "fig11": 100, "fig12": 20}
+POSES = {"fig10": 50, "fig11": 100, "fig12": 20, "restart": 20}
 """Random start poses per object (seeds 0..n-1) at full size; the pose is the outer loop,
 so an interrupted run holds a balanced share of every condition. fig12's 20 (the issue gives
-none): 5 N* x 5 objects x 20 = 500 queries, a fifth of fig11."""
-EXPERIMENTS = ("fig10", "fig11", "fig12")
+none): 5 N* x 5 objects x 20 = 500 queries, a fifth of fig11; the restart sweep's 20: 6
+settings x 5 objects x 20 = 600 queries."""
+EXPERIMENTS = ("fig10", "fig11", "fig12", "restart")
 """The experiments implemented so far; ``all`` runs them in this order."""
 LATER = ("relaxation", "agents")
 """Experiments of the issue still to come."""
@@ -72,6 +77,7 @@ def case(
     dz_star: float = DZ_STAR,
     n_star: int = N_STAR,
     time_budget: float = TIME_BUDGET,
+    restart_iterations: int = SlideParams.restart_iterations,
 ) -> Case:
     """One planning query of ``experiment`` (seed: the random start pose and planner stream)."""
     return {
@@ -82,6 +88,7 @@ def case(
         "planner": planner,
         "dz": dz_band(dz_star),
         "n_star": n_star,
+        "restart_iterations": restart_iterations,
         "seed": seed,
         "time_budget": time_budget,
         "code_version": version,
@@ -120,16 +127,37 @@ def _fig12(version: str, objects: Sequence[str], tables: Sequence[str], **kw: An
     ]
 
 
-_BUILDERS = {"fig10": _fig10, "fig11": _fig11, "fig12": _fig12}
+def _restart(version: str, objects: Sequence[str], tables: Sequence[str], **kw: Any) -> list[Case]:
+    """cbirrt at each restart period and without restarts, dZ* = 2 cm, fig11's problems."""
+    runs = [("cbirrt", r) for r in RESTART_PERIODS] + [("cbirrt-norestart", 100)]
+    return [
+        case(
+            "restart",
+            o,
+            TABLE,
+            i,
+            version,
+            planner=p,
+            restart_iterations=r,
+            time_budget=kw["time_budget"],
+        )
+        for i in range(kw["poses"])
+        for o in objects
+        for p, r in runs
+    ]
+
+
+_BUILDERS = {"fig10": _fig10, "fig11": _fig11, "fig12": _fig12, "restart": _restart}
 
 
 def experiment_cases(name: str, version: str, quick: bool = False) -> list[Case]:
     """The cases of experiment ``name`` (one of :data:`EXPERIMENTS`), stamped ``version``.
 
     Full size: fig10 2 scales x 4 tables x 9 objects x 50 poses (3600); fig11 5 objects x 100
-    poses x (3 dZ* + 2 baselines) (2500); fig12 5 N* x 5 objects x 20 poses (500); 60 s each.
-    ``quick``: the square table, objects :data:`QUICK_OBJECTS`, one pose, 2 s, fig12 at
-    N* = 1 and 100 only (fig10 4, fig11 10, fig12 4 queries: a CI smoke test).
+    poses x (3 dZ* + 3 baselines) (3000); fig12 5 N* x 5 objects x 20 poses (500); restart
+    6 settings x 5 objects x 20 poses (600); 60 s each. ``quick``: the square table, objects
+    :data:`QUICK_OBJECTS`, one pose, 2 s, fig12 at N* = 1 and 100 only (fig10 4, fig11 12,
+    fig12 4, restart 12 queries: a CI smoke test).
     """
     if name not in _BUILDERS:
         raise ValueError(f"unknown experiment {name!r}; implemented: {', '.join(EXPERIMENTS)}")

@@ -28,6 +28,11 @@ class SlideParams:
     (:attr:`~slide_gym.planning.result.SearchParams.max_iterations`; for ``cbirrt`` also the
     start/goal pairs it draws before the search): the query then ends with status
     ``iteration_limit``, on any machine at the same point, while the time budget only gives up.
+
+    ``restart_iterations``: the ``cbirrt`` baseline searches this many iterations for a path
+    between its validated start/goal pair, then draws a new validated pair and starts a new
+    search (the paper's pair-based planner "has to restart with a different pair");
+    ``cbirrt-norestart`` keeps its first pair for the whole budget.
     """
 
     beta0: float = 0.9
@@ -48,6 +53,7 @@ class SlideParams:
     tip_edge_margin: float = 0.0  # m the fingertip contact stays inside the table edge (0: paper)
     shortcut_attempts: int = 40  # constrained shortcuts tried on the found slide (0: none)
     max_iterations: int | None = None  # search iterations before giving up (None: no cap)
+    restart_iterations: int = 100  # cbirrt: iterations on one pair before drawing a new one
     distance_weights: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0, 0.6, 0.6, 0.3)
     ik: IKParams = field(default_factory=IKParams)
     grasp: GraspParams = field(default_factory=GraspParams)
@@ -84,6 +90,9 @@ class SlideParams:
         cap = self.max_iterations
         if cap is not None and (isinstance(cap, bool) or not isinstance(cap, int) or cap < 1):
             raise ValueError(f"max_iterations must be None or an integer >= 1, got {cap!r}")
+        period = self.restart_iterations
+        if isinstance(period, bool) or not isinstance(period, int) or period < 1:
+            raise ValueError(f"restart_iterations must be an integer >= 1, got {period!r}")
         attempts = self.shortcut_attempts
         if isinstance(attempts, bool) or not isinstance(attempts, int) or attempts < 0:
             raise ValueError(f"shortcut_attempts must be an integer >= 0, got {attempts!r}")

@@ -26,9 +26,10 @@ def make_params(
     dbeta: float | None = None,
     n_star: int | None = None,
     base: SlideParams | None = None,
+    restart_iterations: int | None = None,
 ) -> SlideParams:
     """SlideParams with the given overrides (None keeps the default)."""
-    changes = {"dz": dz, "dbeta": dbeta, "n_star": n_star}
+    changes = {"dz": dz, "dbeta": dbeta, "n_star": n_star, "restart_iterations": restart_iterations}
     return dataclasses.replace(
         base or SlideParams(), **{k: v for k, v in changes.items() if v is not None}
     )
@@ -91,5 +92,5 @@ def report(problem: TopSlideProblem, result: PlanResult, planner: str, seed: int
         "table_height": problem.table.height,
         "object_thickness": problem.object.thickness,
         "parameters": extra.get("parameters"),
-        "stats": raw["stats"],
+        "stats": {**raw["stats"], "restarts": extra.get("restarts", 0)},
     }

@@ -27,8 +27,12 @@ from slide_gym.planning.result import (
 
 Config = np.ndarray
 RootSampler = Callable[[np.random.Generator], np.ndarray | None]
-PLANNERS: tuple[str, ...] = ("regions", "cbirrt2", "cbirrt")
-"""The planner names: the paper's planner and the two baselines (one list for the whole project)."""
+PLANNERS: tuple[str, ...] = ("regions", "cbirrt2", "cbirrt", "cbirrt-norestart")
+"""The planner names (one list for the whole project): the paper's planner, the two
+baselines, and ``cbirrt`` without restarts (its first validated pair for the whole budget),
+kept for reference."""
+PAIR_PLANNERS = ("cbirrt", "cbirrt-norestart")
+"""The planners that search between one given start and one given goal configuration."""
 _SIDES = ("start", "goal")
 # A projection that lands this many steps away from its parent has most likely jumped to
 # another part of the manifold; such an edge would not be a valid local motion.
@@ -268,7 +272,8 @@ class ForestConnectPlanner(Planner):
 
     * ``regions``: both forests sample roots (``start``/``goal`` are optional extra roots).
     * ``cbirrt2``: one start root (``start``, else sampled once); goal roots sampled.
-    * ``cbirrt``: one start root and one goal root (given, else sampled once); nothing else.
+    * ``cbirrt``, ``cbirrt-norestart``: one start root and one goal root (given, else sampled
+      once); nothing else (restarts are the caller's: a new planner per pair).
     """
 
     def __init__(
@@ -285,7 +290,8 @@ class ForestConnectPlanner(Planner):
             raise ValueError(f"kind must be one of {PLANNERS}, got {kind!r}")
         if not isinstance(rng, np.random.Generator):
             raise TypeError("rng must be a numpy.random.Generator (np.random.default_rng(seed))")
-        single = {"regions": (False, False), "cbirrt2": (True, False), "cbirrt": (True, True)}
+        single = {"regions": (False, False), "cbirrt2": (True, False)}
+        single |= {name: (True, True) for name in PAIR_PLANNERS}
         fixed = (start, goal)
         self.caps = tuple(1 if single[kind][k] else None for k in (0, 1))
         self.roots = tuple(() if q is None else (np.asarray(q, dtype=float),) for q in fixed)

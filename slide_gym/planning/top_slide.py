@@ -14,6 +14,7 @@ transfer planner's iterations); the time budget only decides when to give up (st
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 import time
@@ -36,6 +37,7 @@ from slide_gym.planning.result import (
     SearchParams,
 )
 from slide_gym.planning.search import (
+    PAIR_PLANNERS,
     PLANNERS,
     DensifyError,
     SearchFunctions,
@@ -53,7 +55,10 @@ class TopSlidePlanner(Planner):
     * ``"regions"``: start and goal forests both sample roots from C_s / C_g (the paper's).
     * ``"cbirrt2"``: one start configuration drawn first; goal roots sampled from C_g.
     * ``"cbirrt"``: draws start/goal pairs until one passes pair validation (inside the budget),
-      then only connects that pair under the motion constraints.
+      then only connects that pair under the motion constraints; after
+      ``SlideParams.restart_iterations`` search iterations without a path it draws a new
+      validated pair and searches again (``extra["restarts"]`` counts them).
+    * ``"cbirrt-norestart"``: ``cbirrt`` keeping its first pair for the whole budget.
 
     ``solve(time_budget)`` returns a :class:`PlanResult` whose ``path`` (fingertip moves
     <= ``path_resolution`` between neighbours) runs from ``start_config`` to ``goal_config``;
@@ -246,7 +251,7 @@ class TopSlidePlanner(Planner):
     def _initial_roots(self, deadline: float, stats: PlannerStats) -> tuple[list, list, str | None]:
         """Roots drawn before the search (Init of Algorithm 1, or the baselines' fixed roots)."""
         regions = (("start", self.start_region), ("goal", self.goal_region))
-        if self.name == "cbirrt":
+        if self.name in PAIR_PLANNERS:
             cap = self.search_params.max_iterations
             for _ in range(cap) if cap is not None else itertools.count():
                 drawn = [self._draw(r, deadline, stats) for _, r in regions]
@@ -291,32 +296,23 @@ class TopSlidePlanner(Planner):
             return PlanResult(PlanStatus.INFEASIBLE, reason, extra=self._extra())
         starts, goals, why = self._initial_roots(search_deadline, stats)
         if why is not None:
-            what, side = why.split(":")
-            if what == "limit":
-                reason = (
-                    f"iteration limit reached: no valid start/goal pair in "
-                    f"{self.search_params.max_iterations} draws (max_iterations)"
-                )
-                return PlanResult(PlanStatus.ITERATION_LIMIT, reason, extra=self._extra())
-            if what == "exhausted":
-                reason = (
-                    f"no {side} configuration: {self.max_root_draws} draws from C_{side[0]} "
-                    "all failed (IK, manifold checks or collisions)"
-                )
-                return PlanResult(PlanStatus.INFEASIBLE, reason, extra=self._extra())
-            return PlanResult(
-                PlanStatus.TIMEOUT,
-                f"time budget exhausted while drawing the {side}",
-                extra=self._extra(),
-            )
-        fns = self.functions(start=self.name == "regions", goal=self.name != "cbirrt")
-        failures = 0
+            return self._no_roots(why)
+        fns = self.functions(start=self.name == "regions", goal=self.name not in PAIR_PLANNERS)
+        failures = restarts = 0
         while True:
+            params = self._period_params(stats)
             res = forest_connect_search(
-                fns, self.search_params, self.rng, search_deadline, stats, starts, goals
+                fns, params, self.rng, search_deadline, stats, starts, goals
             )
+            if params is not self.search_params and res.status is PlanStatus.ITERATION_LIMIT:
+                restarts += 1  # this pair did not connect in its period: draw another
+                starts, goals, why = self._initial_roots(search_deadline, stats)
+                if why is not None:
+                    return self._no_roots(why, restarts)
+                continue
             if not res.solved:
-                res.extra = {**self._extra(), **res.extra, "densify_failures": failures}
+                extra = {"densify_failures": failures, "restarts": restarts}
+                res.extra = {**self._extra(), **res.extra, **extra}
                 return res
             try:
                 path = shortcut_path(
@@ -342,7 +338,37 @@ class TopSlidePlanner(Planner):
                     return PlanResult(PlanStatus.TIMEOUT, reason, extra=self._extra())
                 failures += 1
                 continue
-            return self._solved(res, dense, failures)
+            return self._solved(res, dense, failures, restarts)
+
+    def _period_params(self, stats: PlannerStats) -> SearchParams:
+        """The search settings of the next search: for ``cbirrt``, capped at
+        ``restart_iterations`` more iterations (unless the overall cap comes first)."""
+        if self.name != "cbirrt":
+            return self.search_params
+        cap = stats.iterations + self.problem.params.restart_iterations
+        overall = self.search_params.max_iterations
+        if overall is not None and cap >= overall:
+            return self.search_params
+        return dataclasses.replace(self.search_params, max_iterations=cap)
+
+    def _no_roots(self, why: str, restarts: int = 0) -> PlanResult:
+        """The result when :meth:`_initial_roots` could not draw its roots (``why``)."""
+        what, side = why.split(":")
+        extra = {**self._extra(), "restarts": restarts}
+        if what == "limit":
+            reason = (
+                f"iteration limit reached: no valid start/goal pair in "
+                f"{self.search_params.max_iterations} draws (max_iterations)"
+            )
+            return PlanResult(PlanStatus.ITERATION_LIMIT, reason, extra=extra)
+        if what == "exhausted":
+            reason = (
+                f"no {side} configuration: {self.max_root_draws} draws from C_{side[0]} "
+                "all failed (IK, manifold checks or collisions)"
+            )
+            return PlanResult(PlanStatus.INFEASIBLE, reason, extra=extra)
+        reason = f"time budget exhausted while drawing the {side}"
+        return PlanResult(PlanStatus.TIMEOUT, reason, extra=extra)
 
     def _dense_project(self, hard: float):
         def project(q: np.ndarray, q_near: np.ndarray) -> np.ndarray | None:
@@ -353,7 +379,9 @@ class TopSlidePlanner(Planner):
 
         return project
 
-    def _solved(self, res: PlanResult, dense: np.ndarray, failures: int) -> PlanResult:
+    def _solved(
+        self, res: PlanResult, dense: np.ndarray, failures: int, restarts: int
+    ) -> PlanResult:
         info = res.extra.pop("pair_info")
         extra = {
             **self._extra(),
@@ -365,6 +393,7 @@ class TopSlidePlanner(Planner):
             "transfer_path": np.asarray(info["transfer_path"]).tolist(),
             "raw_path_length": len(res.path),
             "densify_failures": failures,
+            "restarts": restarts,
         }
         return PlanResult(
             PlanStatus.SOLVED, None, res.start_config, res.goal_config, dense, extra=extra

@@ -7,7 +7,6 @@
 from __future__ import annotations
 
 import json
-import math
 import sys
 import time
 from pathlib import Path
@@ -17,23 +16,9 @@ import gymnasium as gym
 import numpy as np
 
 from slide_gym import DICT_ENV_IDS
+from slide_gym.experiments.stats import wilson_interval
 from slide_gym.planning.api import PLANNERS
 from slide_gym.planning.result import check_time_budget
-
-
-def wilson_interval(successes: int, n: int, z: float = 1.96) -> tuple[float, float]:
-    """The Wilson score interval of a success rate (``z=1.96``: 95 %)."""
-    if n < 1:
-        raise ValueError(f"n must be >= 1, got {n}")
-    if not 0 <= successes <= n:
-        raise ValueError(f"successes must be in [0, n={n}], got {successes}")
-    if not z > 0:
-        raise ValueError(f"z must be positive, got {z}")
-    p = successes / n
-    denom = 1.0 + z * z / n
-    center = (p + z * z / (2 * n)) / denom
-    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
-    return max(0.0, center - half), min(1.0, center + half)
 
 
 def _is_int(value: Any) -> bool:

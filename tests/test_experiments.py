@@ -185,3 +185,30 @@ def test_file_names_keep_sizes_and_versions_apart(tmp_path: Path) -> None:
     assert run.other_versions(tmp_path, "fig10", "1.0+a", quick=True) == [
         tmp_path / "fig10-quick-1.0+b.jsonl"
     ]
+
+
+def test_report_plots_and_quotes_the_paper(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    def fake(case: dict[str, Any]) -> dict[str, Any]:
+        solved = case["planner"] != "cbirrt-norestart"  # a condition that never solves
+        return {"status": "solved" if solved else "timeout", "planning_time_s": 0.5, **case}
+
+    monkeypatch.setattr(run, "experiment_case", fake)
+    for name in ("fig10", "fig11", "fig12", "restart"):
+        run.run_experiment(name, quick=True, workers=1, out=tmp_path)
+    assert main(["report", str(tmp_path), "--out", str(tmp_path / "report")]) == 0
+    out = tmp_path / "report"
+    text = (out / "report.md").read_text()
+    for name in ("fig10-quick", "fig11-quick", "fig12-quick", "restart-quick"):
+        assert f"## {name}" in text
+    assert {p.name for p in out.glob("*.png")} >= {"fig11-quick.png", "fig12-quick-mean-time.png"}
+    assert "99 % at 60 s" in text and "lowest at N* = 100" in text
+    row = next(line for line in text.splitlines() if line.startswith("| cbirrt-norestart |"))
+    assert "0.0 % (0-" in row and "unsolved" in row
+    assert "**not met** (100.0 % within 1 s, median 0.50 s" in text
+
+
+def test_report_refuses_an_empty_folder(tmp_path: Path, capsys: pytest.CaptureFixture[str]):
+    assert main(["report", str(tmp_path)]) == 2
+    assert "no experiment results" in capsys.readouterr().err

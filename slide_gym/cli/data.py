@@ -10,8 +10,7 @@ from typing import Any
 
 from slide_gym import DICT_ENV_IDS, EXPERT_ENV_ID
 from slide_gym.cli.args import add_backend, add_choice, add_command, check_output
-
-PLANNER_AGENTS = ("regions", "cbirrt", "cbirrt2")
+from slide_gym.planning.search import PLANNERS
 
 
 def _cmd_collect(args: argparse.Namespace) -> int:
@@ -170,7 +169,7 @@ def add_parsers(sub: Any) -> None:
         ],
     )
     add_choice(p, "--env", DICT_ENV_IDS, "env", f"one of {envs}", EXPERT_ENV_ID, "ID")
-    add_choice(p, "--agent", PLANNER_AGENTS, "agent", "the expert's planner", "regions", "NAME")
+    add_choice(p, "--agent", PLANNERS, "agent", "the expert's planner", "regions", "NAME")
     p.add_argument("--episodes", type=int, required=True, metavar="N", help="episodes to keep")
     p.add_argument(
         "--dataset-id", required=True, metavar="NAMESPACE/NAME-vK", help="the Minari dataset id"
@@ -271,7 +270,9 @@ def add_parsers(sub: Any) -> None:
             "slide-gym evaluate regions --env SlideGym/TopSlide-v0 --episodes 20 --json",
         ],
     )
-    p.add_argument("agent", metavar="MODEL.zip|regions|cbirrt|cbirrt2", help="what acts")
+    p.add_argument(
+        "agent", metavar="MODEL.zip|PLANNER", help=f"a saved model or one of {', '.join(PLANNERS)}"
+    )
     add_choice(p, "--env", DICT_ENV_IDS, "env", f"one of {envs}", EXPERT_ENV_ID, "ID")
     p.add_argument("--episodes", type=int, required=True, metavar="N", help="episodes")
     p.add_argument("--seed", type=int, default=10_000, metavar="S", help="first reset seed")

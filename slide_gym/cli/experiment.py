@@ -75,3 +75,28 @@ def add_parsers(sub: Any) -> None:
         help="results folder: one JSONL file per experiment and code version",
     )
     p.set_defaults(func=_cmd_experiment)
+
+    p = add_command(
+        sub,
+        "report",
+        "plots and a markdown report from experiment results",
+        "Read the JSONL files `slide-gym experiment` wrote to RESULTS_DIR (per experiment, "
+        "the file with the most rows) and write one PNG per experiment (success against "
+        "planning time with 95 % Wilson bands; mean times with standard errors) and "
+        "report.md, with the paper's figures beside ours and the planner speed target.",
+        [
+            "slide-gym report results/experiments",
+            "slide-gym report results/experiments --out docs/results",
+        ],
+    )
+    p.add_argument("results", type=Path, metavar="RESULTS_DIR", help="experiment results")
+    p.add_argument("--out", type=Path, metavar="DIR", help="where to write (default: RESULTS_DIR)")
+    p.set_defaults(func=_cmd_report)
+
+
+def _cmd_report(args: argparse.Namespace) -> int:
+    from slide_gym.experiments.report import write_report
+
+    path = write_report(args.results, args.out)
+    print(path)
+    return 0

@@ -63,7 +63,7 @@ def test_full_sizes_follow_the_issue() -> None:
 
 def test_quick_sizes_are_a_smoke_test() -> None:
     sizes = {n: len(experiment_cases(n, "v", quick=True)) for n in specs.EXPERIMENTS}
-    assert sizes == {"fig10": 4, "fig11": 12, "fig12": 4, "restart": 12}
+    assert sizes == {"fig10": 4, "fig11": 12, "fig12": 4, "restart": 12, "agents": 6}
     for name in specs.EXPERIMENTS:
         cases = experiment_cases(name, "v", quick=True)
         assert _values(cases, "time_budget") == {2.0} and _values(cases, "table") == {"square"}
@@ -149,7 +149,7 @@ def _refuse(*args: object, **kwargs: object) -> Any:
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["nope"], "unknown experiment 'nope'; choose from fig10, fig11, fig12, restart, all, "),
+        (["nope"], "unknown experiment 'nope'; choose from fig10, fig11, fig12, restart, agents, "),
         (["fig10", "--ray-address", "10.0.0.1:6379"], "--ray-address goes with --backend ray"),
         (
             ["relaxation"],
@@ -195,13 +195,14 @@ def test_report_plots_and_quotes_the_paper(
         return {"status": "solved" if solved else "timeout", "planning_time_s": 0.5, **case}
 
     monkeypatch.setattr(run, "experiment_case", fake)
-    for name in ("fig10", "fig11", "fig12", "restart"):
+    for name in ("fig10", "fig11", "fig12", "restart", "agents"):
         run.run_experiment(name, quick=True, workers=1, out=tmp_path)
     assert main(["report", str(tmp_path), "--out", str(tmp_path / "report")]) == 0
     out = tmp_path / "report"
     text = (out / "report.md").read_text()
-    for name in ("fig10-quick", "fig11-quick", "fig12-quick", "restart-quick"):
+    for name in ("fig10-quick", "fig11-quick", "fig12-quick", "restart-quick", "agents-quick"):
         assert f"## {name}" in text
+    assert "| regions | 2 | 0.0 % (0-" in text  # fake agents rows carry no success
     assert {p.name for p in out.glob("*.png")} >= {"fig11-quick.png", "fig12-quick-mean-time.png"}
     assert "99 % at 60 s" in text and "lowest at N* = 100" in text
     row = next(line for line in text.splitlines() if line.startswith("| cbirrt-norestart |"))

@@ -37,19 +37,21 @@ def add_parsers(sub: Any) -> None:
     p = add_command(
         sub,
         "experiment",
-        "the paper's experiments (fig10, fig11, fig12, restart) as resumable runs",
+        "the paper's experiments and the agents' comparison as resumable runs",
         "Run the planning queries of one of the paper's experiments in parallel and print a "
         "summary as JSON. fig10: 4 tables x 9 objects (5 paper objects, letters Y A L E) x 50 "
         "start poses at scales 1 and 0.5; fig11: square table, 5 objects x 100 poses with "
         "dZ* = 0, 0.5, 2 cm (dZ- = 0.5 cm), and cbirrt, cbirrt2, cbirrt-norestart at 2 cm on "
         "the same problems; fig12: 5 objects x 20 poses at N* = 1, 10, 100, 1000, 10000; "
         "restart: fig11's problems (20 poses) with cbirrt at restart periods 25-400 search "
-        "iterations and without restarts; "
+        "iterations and without restarts; agents: the expert with the regions, cbirrt and "
+        "cbirrt2 planners on TopSlideGrasp-v0, 9 objects x 4 tables x 10 seeds, 10 s "
+        "planning per episode; "
         f"{TIME_BUDGET:g} s per query. Each query is one JSON line, written as it finishes, "
         "to DIR/NAME-VERSION.jsonl (VERSION: the code version, package version + git commit "
         "+ dirty.HASH for uncommitted changes): a re-run of the same code skips finished "
         "queries, so Ctrl-C and resume lose nothing; other code writes a new file and never "
-        "reuses another version's rows. relaxation and agents come later.",
+        "reuses another version's rows. relaxation comes later.",
         [
             "slide-gym experiment all --quick",
             "slide-gym experiment fig11 --workers 2 --out results/experiments",

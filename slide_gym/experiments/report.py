@@ -26,6 +26,8 @@ PAPER = {
     "fig12": "mean planning time lowest at N* = 100.",
     "fig10": "mean planning time similar across objects and tables, and at half scale.",
     "restart": "(not in the paper: the period of our CBiRRT baseline's restarts).",
+    "agents": "(not in the paper: the planners driving the expert in physics, slide, grasp "
+    "and lift).",
 }
 """The paper's numbers each experiment is compared with (Section V)."""
 SPEED = (
@@ -98,9 +100,10 @@ def success_table(rows: list[dict[str, Any]], budget: float) -> list[dict[str, A
 
 
 def plot_success(rows: list[dict[str, Any]], budget: float, out: Path, title: str) -> None:
-    """Success rate against planning time per condition, with 95 % Wilson bands."""
+    """Success rate against planning time (log scale: most queries solve within a second)
+    per condition, with 95 % Wilson bands."""
     plt = _pyplot()
-    grid = np.linspace(0.0, budget, 300)
+    grid = np.geomspace(0.05, budget, 300)
     fig, ax = plt.subplots(figsize=(6.5, 4))
     groups: dict[str, list[dict[str, Any]]] = {}
     for r in rows:
@@ -112,6 +115,7 @@ def plot_success(rows: list[dict[str, Any]], budget: float, out: Path, title: st
         ax.plot(grid, k / len(t), label=f"{label} (n={len(t)})")
         ax.fill_between(grid, band[:, 0], band[:, 1], alpha=0.15)
     ax.set(xlabel="planning time (s)", ylabel="success rate", ylim=(0, 1.02), title=title)
+    ax.set_xscale("log")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
@@ -176,6 +180,8 @@ def write_report(results: Path, out: Path | None = None) -> Path:
                 lines += _mean_markdown(rows, "table") + _mean_markdown(rows, "scale")
         if base == "fig11":
             lines += _speed_markdown(rows, budget)
+        if base == "agents":
+            lines += _agents_markdown(rows)
     path = out / "report.md"
     path.write_text("\n".join(lines) + "\n")
     return path
@@ -226,6 +232,37 @@ def _speed_markdown(rows: list[dict[str, Any]], budget: float) -> list[str]:
         f"{median:.2f} s, over {len(ours)} queries).",
         "",
     ]
+
+
+def _agents_markdown(rows: list[dict[str, Any]]) -> list[str]:
+    """Per planner: lifted rate (95 % Wilson), median planning and wall time, failures."""
+    from slide_gym.bench.execute import failure_kind
+
+    lines = [
+        "| planner | episodes | lifted | median planning | median wall | failures |",
+        "|---|---|---|---|---|---|",
+    ]
+    for planner in sorted({r["case"]["planner"] for r in rows}):
+        mine = [r for r in rows if r["case"]["planner"] == planner]
+        k = sum(bool(r.get("success")) for r in mine)
+        lo, hi = wilson_interval(k, len(mine))
+        counts: dict[str, int] = {}
+        for r in mine:
+            kind = failure_kind(r)
+            if kind is not None:
+                counts[kind] = counts.get(kind, 0) + 1
+        causes = "; ".join(f"{n} {kind}" for kind, n in sorted(counts.items(), key=lambda x: -x[1]))
+        lines.append(
+            f"| {planner} | {len(mine)} | {100 * k / len(mine):.1f} % ({100 * lo:.0f}-"
+            f"{100 * hi:.0f}) | {_median_of(mine, 'planning_time_s')} | "
+            f"{_median_of(mine, 'wall_time_s')} | {causes or 'none'} |"
+        )
+    return [*lines, ""]
+
+
+def _median_of(rows: list[dict[str, Any]], key: str) -> str:
+    values = [float(r[key]) for r in rows if r.get(key) is not None]
+    return f"{np.median(values):.2f} s" if values else "n/a"
 
 
 def _solved_times(rows: list[dict[str, Any]], key: str, value: Any) -> np.ndarray:

@@ -30,9 +30,14 @@ def results_file(out: Path, name: str, version: str, quick: bool = False) -> Pat
 def experiment_case(case: Case) -> dict[str, Any]:
     """One planning query (runs in a worker process): the ``slide-gym plan --json`` fields but
     :data:`LEFT_OUT`, then the case's own fields (experiment, object, table, scale, planner,
-    dz, n_star, restart_iterations, seed, time_budget, code_version)."""
+    dz, n_star, restart_iterations, seed, time_budget, code_version). An ``agents`` case is
+    one expert episode instead: the ``slide-gym run --json`` fields, then the case's."""
     from slide_gym.planning.runner import make_params, plan_once
 
+    if case["experiment"] == "agents":
+        from slide_gym.bench.execute import execute_case
+
+        return {**execute_case(case), **case}
     params = make_params(
         dz=(case["dz"][0], case["dz"][1]),
         n_star=case["n_star"],

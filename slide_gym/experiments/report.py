@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from slide_gym.bench.jobs import load_results
+from slide_gym.experiments.specs import EXPERIMENTS, experiment_cases
 from slide_gym.experiments.stats import mean_and_sem, wilson_interval
 
 MARKS = (1.0, 5.0, 10.0, 20.0, 60.0)
@@ -66,6 +67,26 @@ def condition(row: dict[str, Any]) -> str:
     return f"{c['object']} / {c['table']} / x{c['scale']:g}"
 
 
+def by_condition(rows: Sequence[dict[str, Any]]) -> dict[str, list[dict[str, Any]]]:
+    """Rows grouped by :func:`condition`, ours first, then by the varied parameter's value."""
+    groups: dict[str, list[dict[str, Any]]] = {}
+    for r in sorted(rows, key=_condition_order):
+        groups.setdefault(condition(r), []).append(r)
+    return groups
+
+
+def _condition_order(row: dict[str, Any]) -> tuple[Any, ...]:
+    c = row["case"]
+    dz = c.get("dz") or [0.0, 0.0]
+    return (
+        c["planner"] != "regions",
+        c["planner"],
+        dz[1] - dz[0],
+        c.get("n_star", 0),
+        c.get("restart_iterations", 0),
+    )
+
+
 def solve_times(rows: Sequence[dict[str, Any]]) -> np.ndarray:
     """Planning time of each row, ``inf`` where it did not solve."""
     return np.array(
@@ -77,10 +98,7 @@ def success_table(rows: list[dict[str, Any]], budget: float) -> list[dict[str, A
     """Per condition: runs, success at each mark within ``budget`` (with a 95 % Wilson
     interval), median time, largest overrun of the budget."""
     out = []
-    groups: dict[str, list[dict[str, Any]]] = {}
-    for r in rows:
-        groups.setdefault(condition(r), []).append(r)
-    for label, group in groups.items():
+    for label, group in by_condition(rows).items():
         t = solve_times(group)
         marks = {}
         for m in (m for m in MARKS if m <= budget):
@@ -105,10 +123,7 @@ def plot_success(rows: list[dict[str, Any]], budget: float, out: Path, title: st
     plt = _pyplot()
     grid = np.geomspace(0.05, budget, 300)
     fig, ax = plt.subplots(figsize=(6.5, 4))
-    groups: dict[str, list[dict[str, Any]]] = {}
-    for r in rows:
-        groups.setdefault(condition(r), []).append(r)
-    for label, group in groups.items():
+    for label, group in by_condition(rows).items():
         t = solve_times(group)
         k = np.array([(t <= g).sum() for g in grid])
         band = np.array([wilson_interval(int(v), len(t)) for v in k])
@@ -155,14 +170,19 @@ def write_report(results: Path, out: Path | None = None) -> Path:
         f"{platform.platform()}, {os.cpu_count()} cores, Python {platform.python_version()}.",
         "",
     ]
+    missing = [n for n in EXPERIMENTS if n not in experiments and f"{n}-quick" not in experiments]
+    if missing:
+        lines += [f"Not run yet (no results here): {', '.join(missing)}.", ""]
     for name, (version, rows) in sorted(experiments.items()):
         base = name.removesuffix("-quick")
         budget = max(r["case"]["time_budget"] for r in rows)
+        planned = len(experiment_cases(base, version, quick=name.endswith("-quick")))
+        size = f"{len(rows)} runs" + ("" if len(rows) == planned else f" of {planned} planned")
         lines += [
             f"## {name}",
             "",
-            f"{len(rows)} queries, code version `{version}`, "
-            f"{budget:g} s budget each. Paper: {PAPER.get(base, 'n/a')}",
+            f"{size}, code version `{version}`, {budget:g} s planning budget each. Paper: "
+            f"{PAPER.get(base, 'n/a')}",
             "",
         ]
         if base in ("fig11", "restart", "fig12"):

@@ -23,6 +23,8 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.preprocessing import get_flattened_obs_dim
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 
+from slide_gym.planning.result import json_values
+
 if TYPE_CHECKING:
     import minari
 
@@ -223,16 +225,6 @@ def model_card_path(model_path: str | Path) -> Path:
     return model_zip_path(model_path).with_suffix(".json")
 
 
-def _json_default(value: Any) -> Any:
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, Path):
-        return str(value)
-    raise TypeError(f"not JSON serialisable: {value!r} ({type(value).__name__})")
-
-
 def write_model_card(
     model_path: Path, env_id: str, env_kwargs: dict[str, Any], extra: dict[str, Any]
 ) -> Path:
@@ -243,7 +235,7 @@ def write_model_card(
         raise ValueError(f"extra must not contain {sorted(clash)}")
     card = {"env_id": env_id, "env_kwargs": dict(env_kwargs), **extra}
     try:
-        text = json.dumps(card, indent=2, default=_json_default)
+        text = json.dumps(json_values(card), indent=2)
     except TypeError as err:
         raise ValueError(f"model card: {err}") from err
     path = model_card_path(model_path)

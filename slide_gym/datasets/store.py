@@ -20,6 +20,7 @@ import numpy as np
 
 from slide_gym.datasets.config import check_dataset_id
 from slide_gym.datasets.recording import RecordedEpisode
+from slide_gym.planning.result import json_values
 
 CHUNK = 16
 """Episodes per write: bounds the memory a large dataset needs while it is built."""
@@ -139,7 +140,7 @@ def read_episodes(dataset: Any, indices: Iterable[int] | None = None) -> Iterato
     for data, meta in zip(dataset.storage.get_episodes(ids), metas, strict=True):
         yield RecordedEpisode(
             seed=int(meta["seed"]),
-            options=_json_values(meta.get("options", {})),
+            options=json_values(meta.get("options", {})),
             observations=dict(data["observations"]),
             actions=np.asarray(data["actions"]),
             rewards=np.asarray(data["rewards"]),
@@ -200,16 +201,3 @@ def _chunks(items: Iterable[Any], size: int) -> Iterator[list[Any]]:
 
 def _text(value: Any) -> str:
     return value.decode() if isinstance(value, bytes) else str(value)
-
-
-def _json_values(value: Any) -> Any:
-    """HDF5 attributes back as JSON values: bytes -> str, arrays -> lists, numpy scalars."""
-    if isinstance(value, dict):
-        return {k: _json_values(v) for k, v in value.items()}
-    if isinstance(value, bytes):
-        return value.decode()
-    if isinstance(value, np.ndarray):
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    return value

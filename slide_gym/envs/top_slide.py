@@ -357,8 +357,7 @@ class TopSlideEnv(gym.Env):
         geometry on the next physics step, so the continuation is close to the original but
         not bit for bit (``slide-gym replay --mode states`` measures by how much). Dropping
         them at every step would make restores exact, but it costs the friction anchors that
-        hold a pinched plate: with it, 3 of 6 expert lifts lost the plate (same scenes: 6 of
-        6 held without).
+        hold a pinched plate (in a trial of that change, 3 of 6 expert lifts lost the plate).
         """
         if self._state is None:
             raise RuntimeError("call reset() before set_state(): the state holds no scene")

@@ -9,6 +9,7 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from enum import Enum
 from numbers import Real
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -50,8 +51,12 @@ class PlannerStats:
         return {k: v for k, v in asdict(self).items() if isinstance(v, int)}
 
 
-def _plain(value: Any) -> Any:
-    """Convert NumPy values and containers to JSON-serialisable Python objects."""
+def json_values(value: Any) -> Any:
+    """NumPy values, enums, paths, bytes (UTF-8) and containers of them as JSON values."""
+    if isinstance(value, bytes):
+        return value.decode()
+    if isinstance(value, Path):
+        return str(value)
     if isinstance(value, np.ndarray):
         return value.tolist()
     if isinstance(value, np.generic):
@@ -59,9 +64,9 @@ def _plain(value: Any) -> Any:
     if isinstance(value, Enum):
         return value.value
     if isinstance(value, dict):
-        return {str(k): _plain(v) for k, v in value.items()}
+        return {str(k): json_values(v) for k, v in value.items()}
     if isinstance(value, list | tuple):
-        return [_plain(v) for v in value]
+        return [json_values(v) for v in value]
     return value
 
 
@@ -87,11 +92,11 @@ class PlanResult:
         return {
             "status": self.status.value,
             "reason": self.reason,
-            "start_config": _plain(self.start_config),
-            "goal_config": _plain(self.goal_config),
-            "path": _plain(self.path),
-            "stats": _plain(asdict(self.stats)),
-            "extra": _plain(self.extra),
+            "start_config": json_values(self.start_config),
+            "goal_config": json_values(self.goal_config),
+            "path": json_values(self.path),
+            "stats": json_values(asdict(self.stats)),
+            "extra": json_values(self.extra),
         }
 
 

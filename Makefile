@@ -13,7 +13,7 @@ $(VENV)/.installed: pyproject.toml
 	# resolves to a CPU wheel; elsewhere pass TORCH_INDEX=https://download.pytorch.org/whl/cpu
 	# (PyPI's torch==2.13.0 for Linux is the multi-GB CUDA build).
 	$(PY) -m pip install -q torch==2.13.0 $(if $(TORCH_INDEX),--index-url $(TORCH_INDEX))
-	$(PY) -m pip install -q -e ".[dev,rl,ray]"
+	$(PY) -m pip install -q -e ".[dev,rl,ray,ompl]"
 	touch $@
 
 install: $(VENV)/.installed

@@ -19,13 +19,15 @@ def _make(**kwargs) -> gym.Env:
 
 @pytest.fixture(scope="module")
 def pressed(plan_budget):
-    """The expert's first 80 steps of seed 0 (the fingertip is on the plate from step 46),
-    with the state before every step."""
+    """The expert's steps of seed 0 until 35 steps after the fingertip first touches the
+    plate, with the state before every step."""
     env = _make()
     agent = PlannerAgent("regions", plan_budget, seed=0)
     obs, _ = env.reset(seed=0)
     states, observations, actions, touching = [], [], [], []
-    for t in range(80):
+    for t in range(300):
+        if True in touching and len(touching) - touching.index(True) >= 35:
+            break
         action, _ = agent.predict(obs, episode_start=np.array([t == 0]))
         states.append(env.unwrapped.get_state())
         obs, _, terminated, _, info = env.step(action)

@@ -30,12 +30,12 @@ def _values(cases: list[dict[str, Any]], key: str) -> set[Any]:
 def test_full_sizes_follow_the_issue() -> None:
     names = ("fig10", "fig11", "fig12", "restart")
     fig10, fig11, fig12, restart = (experiment_cases(n, "v") for n in names)
-    assert (len(fig10), len(fig11), len(fig12), len(restart)) == (3600, 3000, 500, 600)
+    assert (len(fig10), len(fig11), len(fig12), len(restart)) == (720, 3100, 500, 600)
     for cases in (fig10, fig11, fig12, restart):
         assert _values(cases, "time_budget") == {60.0} and _values(cases, "code_version") == {"v"}
     assert _values(fig10, "object") == PAPER | {"Y", "A", "L", "E"}
     assert _values(fig10, "table") == {"square", "round", "long", "triangle"}
-    assert _values(fig10, "scale") == {1.0, 0.5} and _values(fig10, "seed") == set(range(50))
+    assert _values(fig10, "scale") == {1.0, 0.5} and _values(fig10, "seed") == set(range(10))
     assert _values(fig10, "dz") == {json.dumps(DZ_2CM)} and _values(fig10, "n_star") == {100}
     problems: dict[tuple[str, str], set[tuple[str, int]]] = {}
     for c in fig11:
@@ -49,11 +49,12 @@ def test_full_sizes_follow_the_issue() -> None:
         ("cbirrt", "[0.005, 0.025]"): same,
         ("cbirrt2", "[0.005, 0.025]"): same,
         ("cbirrt-norestart", "[0.005, 0.025]"): same,
+        ("ompl", "[0.005, 0.025]"): {(o, s) for o in PAPER for s in range(20)},
     }
     assert _values(fig11, "table") == _values(fig12, "table") == {"square"}
     assert _values(fig12, "n_star") == {1, 10, 100, 1000, 10000}
     assert _values(fig12, "dz") == {json.dumps(DZ_2CM)} and _values(fig12, "seed") == set(range(20))
-    assert fig10[0]["seed"] == 0 and fig10[-1]["seed"] == 49  # the pose is the outer loop
+    assert fig10[0]["seed"] == 0 and fig10[-1]["seed"] == 9  # the pose is the outer loop
     sweep = {(c["planner"], c["restart_iterations"]) for c in restart}
     assert sweep == {("cbirrt", r) for r in (25, 50, 100, 200, 400)} | {("cbirrt-norestart", 100)}
     assert _values(restart, "dz") == {json.dumps(DZ_2CM)} and _values(restart, "table") == {
@@ -63,7 +64,9 @@ def test_full_sizes_follow_the_issue() -> None:
 
 def test_quick_sizes_are_a_smoke_test() -> None:
     sizes = {n: len(experiment_cases(n, "v", quick=True)) for n in specs.EXPERIMENTS}
-    assert sizes == {"fig10": 4, "fig11": 12, "fig12": 4, "restart": 12, "agents": 6}
+    assert sizes == {
+        "fig10": 4, "fig11": 14, "fig12": 4, "restart": 12, "agents": 6, "relaxation": 17
+    }  # fmt: skip
     for name in specs.EXPERIMENTS:
         cases = experiment_cases(name, "v", quick=True)
         assert _values(cases, "time_budget") == {2.0} and _values(cases, "table") == {"square"}
@@ -76,22 +79,23 @@ def test_fig11_quick_writes_a_row_per_query_and_resumes(
     summary = run.run_experiment("fig11", quick=True, workers=1, out=tmp_path)
     stamp = version.code_version()
     path = tmp_path / f"fig11-quick-{stamp}.jsonl"
-    assert summary["file"] == str(path) and summary["runs"] == summary["of"] == 12
+    assert summary["file"] == str(path) and summary["runs"] == summary["of"] == 14
     rows = [json.loads(line) for line in path.read_text().splitlines()]
-    assert len(rows) == 12 and [p.name for p in tmp_path.iterdir()] == [path.name]
+    assert len(rows) == 14 and [p.name for p in tmp_path.iterdir()] == [path.name]
     for row in rows:
         assert row.keys() >= ROW_KEYS and not {"path", "transfer_path"} & row.keys()
         assert row["code_version"] == row["case"]["code_version"] == stamp
         assert row["experiment"] == "fig11"
         assert row["status"] in {"solved", "timeout", "infeasible"}
-    assert {r["planner"] for r in rows} == {"regions", "cbirrt", "cbirrt2", "cbirrt-norestart"}
+    planners = {r["planner"] for r in rows}
+    assert planners == {"regions", "cbirrt", "cbirrt2", "cbirrt-norestart", "ompl"}
 
     def refuse(case: dict[str, Any]) -> dict[str, Any]:
         raise AssertionError("a finished query ran again")
 
     monkeypatch.setattr(run, "experiment_case", refuse)
     again = run.run_experiment("fig11", quick=True, workers=1, out=tmp_path)
-    assert again["runs"] == 12 and len(path.read_text().splitlines()) == 12
+    assert again["runs"] == 14 and len(path.read_text().splitlines()) == 14
 
 
 def _fake_case(case: dict[str, Any]) -> dict[str, Any]:
@@ -151,10 +155,7 @@ def _refuse(*args: object, **kwargs: object) -> Any:
     [
         (["nope"], "unknown experiment 'nope'; choose from fig10, fig11, fig12, restart, agents, "),
         (["fig10", "--ray-address", "10.0.0.1:6379"], "--ray-address goes with --backend ray"),
-        (
-            ["relaxation"],
-            "'relaxation' is not implemented yet; run one of fig10, fig11, fig12, restart",
-        ),
+        (["relaxation", "--workers", "-1"], "--workers must be >= 1"),
         (["all", "--workers", "0"], "--workers must be >= 1"),
     ],
 )
@@ -195,15 +196,21 @@ def test_report_plots_and_quotes_the_paper(
         return {"status": "solved" if solved else "timeout", "planning_time_s": 0.5, **case}
 
     monkeypatch.setattr(run, "experiment_case", fake)
-    for name in ("fig10", "fig11", "fig12", "restart", "agents"):
+    for name in ("fig10", "fig11", "fig12", "restart", "agents", "relaxation"):
         run.run_experiment(name, quick=True, workers=1, out=tmp_path)
     assert main(["report", str(tmp_path), "--out", str(tmp_path / "report")]) == 0
     out = tmp_path / "report"
     text = (out / "report.md").read_text()
-    for name in ("fig10-quick", "fig11-quick", "fig12-quick", "restart-quick", "agents-quick"):
-        assert f"## {name}" in text
+    for name in specs.EXPERIMENTS:
+        assert f"## {name}-quick" in text
+    assert "Not run yet" not in text
     assert "| regions | 2 | 0.0 % (0-" in text  # fake agents rows carry no success
-    assert {p.name for p in out.glob("*.png")} >= {"fig11-quick.png", "fig12-quick-mean-time.png"}
+    pngs = {"fig11-quick.png", "fig12-quick-mean-time.png", "relaxation-quick.png"}
+    assert {p.name for p in out.glob("*.png")} >= pngs
+    assert "| dZ* = 0 cm | 2 | 0.0 % (0-" in text  # the expert's episodes per band
+    assert "| expert's own band (1.2 cm to 2 cm) | 2 |" in text
+    assert "| orientation | 0.5 cm | 1 | 100 % (" in text and "2 % within 60 s" in text
+    assert "Reproduces the drop within our 2 s budget" in text
     assert "99 % at 60 s" in text and "lowest at N* = 100" in text
     row = next(line for line in text.splitlines() if line.startswith("| cbirrt-norestart |"))
     assert "0.0 % (0-" in row and "unsolved" in row

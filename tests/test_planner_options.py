@@ -115,19 +115,19 @@ def test_tip_edge_margin_keeps_contacts_and_goals_inside_the_edge(solve_top_slid
 
 
 def test_cbirrt_restarts_with_a_new_pair_after_its_period(plan_budget: float) -> None:
-    """E on the square table, seed 3: the first validated pair needs 21 search iterations.
+    """L on the square table, seed 3: the first validated pair needs 14 search iterations.
     With a period of 5, cbirrt leaves that pair and draws others; cbirrt-norestart keeps it."""
     from slide_gym.planning.runner import make_params, plan_once
 
-    kept = plan_once("E", "square", seed=3, planner="cbirrt-norestart", time_budget=plan_budget)
+    kept = plan_once("L", "square", seed=3, planner="cbirrt-norestart", time_budget=plan_budget)
     assert kept["status"] == "solved" and kept["stats"]["restarts"] == 0
     assert kept["stats"]["iterations"] > 5
     params = make_params(restart_iterations=5)
     kw = {"seed": 3, "planner": "cbirrt", "time_budget": plan_budget, "params": params}
-    restarted = plan_once("E", "square", **kw)
+    restarted = plan_once("L", "square", **kw)
     assert restarted["stats"]["restarts"] >= 1
     assert restarted["parameters"]["restart_iterations"] == 5
-    again = plan_once("E", "square", **kw)
+    again = plan_once("L", "square", **kw)
     for key in ("status", "start_config", "goal_config", "path"):
         assert again[key] == restarted[key]
     assert again["stats"]["iterations"] == restarted["stats"]["iterations"]

@@ -42,11 +42,15 @@ def _run_episode() -> Callable[..., EpisodeRecord]:
 def execute_case(case: dict[str, Any]) -> dict[str, Any]:
     """One expert episode of the execute benchmark (runs in a worker process).
 
-    A scene the episode rejects (``ValueError``) becomes a failed row carrying the message,
-    with the same keys as an episode's row.
+    A case's ``dz`` (``[dz_lo, dz_hi]``, m), if any, replaces the expert's contact band
+    (``agents.params.EXPERT_SLIDE_PARAMS.dz``) for every plan of the episode: the first, the
+    relaxed fallback and the replans (they all derive from the agent's parameters and keep
+    its ``dz``). A scene the episode rejects (``ValueError``) becomes a failed row carrying
+    the message, with the same keys as an episode's row.
     """
     from agents.record import EpisodeRecord
 
+    overrides = {"dz": (float(case["dz"][0]), float(case["dz"][1]))} if "dz" in case else {}
     try:
         record = _run_episode()(
             case["object"],
@@ -57,6 +61,7 @@ def execute_case(case: dict[str, Any]) -> dict[str, Any]:
             scale=case.get("scale", 1.0),
             thickness=case.get("thickness"),
             env_id=case.get("env_id", ENV_ID),
+            **overrides,
         )
     except ValueError as err:
         record = EpisodeRecord.rejected(

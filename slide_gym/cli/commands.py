@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -19,7 +19,7 @@ from slide_gym.cli.args import (
 )
 from slide_gym.cli.text import demo_text, plan_text, run_text
 from slide_gym.geometry import OBJECT_NAMES, TABLE_NAMES
-from slide_gym.planning.search import PLANNERS
+from slide_gym.planning.search import PLANNERS, REFERENCE_PLANNERS
 from slide_gym.task import PROCEDURAL
 
 if TYPE_CHECKING:  # agents builds on slide_gym: imported on use only
@@ -203,9 +203,11 @@ def _thickness(p: argparse.ArgumentParser) -> None:
     )
 
 
-def _planning(p: argparse.ArgumentParser, budget_help: str) -> None:
-    """``--planner`` and ``--time-budget``."""
-    add_choice(p, "--planner", PLANNERS, "planner", "the tree search", "regions")
+def _planning(
+    p: argparse.ArgumentParser, budget_help: str, planners: Sequence[str] = PLANNERS
+) -> None:
+    """``--planner`` (one of ``planners``) and ``--time-budget``."""
+    add_choice(p, "--planner", planners, "planner", "the tree search", "regions")
     p.add_argument(
         "--time-budget",
         type=float,
@@ -283,7 +285,7 @@ def add_parsers(sub: Any) -> None:
     _scale(p)
     _thickness(p)
     _object_pose(p)
-    _planning(p, "for the query")
+    _planning(p, "for the query", (*PLANNERS, *REFERENCE_PLANNERS))
     p.add_argument(
         "--dz", metavar="LO,HI", help="contact depth relaxation in m (default: the planner's)"
     )

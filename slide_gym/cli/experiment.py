@@ -46,12 +46,15 @@ def add_parsers(sub: Any) -> None:
         "restart: fig11's problems (20 poses) with cbirrt at restart periods 25-400 search "
         "iterations and without restarts; agents: the expert with the regions, cbirrt and "
         "cbirrt2 planners on TopSlideGrasp-v0, 9 objects x 4 tables x 10 seeds, 10 s "
-        "planning per episode; "
+        "planning per episode; relaxation: the regions expert planning with the contact "
+        "band of dZ* = 0, 0.5, 2 cm and with its own, 9 objects x 4 tables x 2 seeds, and the "
+        "regions planner with the projection variants steps, nodes and orientation at each "
+        "dZ* on fig11's problems (10 poses, 20 s per query); otherwise "
         f"{TIME_BUDGET:g} s per query. Each query is one JSON line, written as it finishes, "
         "to DIR/NAME-VERSION.jsonl (VERSION: the code version, package version + git commit "
         "+ dirty.HASH for uncommitted changes): a re-run of the same code skips finished "
         "queries, so Ctrl-C and resume lose nothing; other code writes a new file and never "
-        "reuses another version's rows. relaxation comes later.",
+        "reuses another version's rows.",
         [
             "slide-gym experiment all --quick",
             "slide-gym experiment fig11 --workers 2 --out results/experiments",

@@ -4,6 +4,7 @@ re-run skips finished ones, Ctrl-C keeps them)."""
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 from pathlib import Path
 from typing import Any
@@ -30,11 +31,13 @@ def results_file(out: Path, name: str, version: str, quick: bool = False) -> Pat
 def experiment_case(case: Case) -> dict[str, Any]:
     """One planning query (runs in a worker process): the ``slide-gym plan --json`` fields but
     :data:`LEFT_OUT`, then the case's own fields (experiment, object, table, scale, planner,
-    dz, n_star, restart_iterations, seed, time_budget, code_version). An ``agents`` case is
-    one expert episode instead: the ``slide-gym run --json`` fields, then the case's."""
+    dz, n_star, restart_iterations, seed, time_budget, code_version, and projection where
+    given). A case with an ``env_id`` (agents, the relaxation experiment's expert part) is
+    one expert episode instead: the ``slide-gym run --json`` fields, then the case's (its
+    ``dz``, if any, is the band the expert plans with)."""
     from slide_gym.planning.runner import make_params, plan_once
 
-    if case["experiment"] == "agents":
+    if "env_id" in case:
         from slide_gym.bench.execute import execute_case
 
         return {**execute_case(case), **case}
@@ -43,6 +46,8 @@ def experiment_case(case: Case) -> dict[str, Any]:
         n_star=case["n_star"],
         restart_iterations=case["restart_iterations"],
     )
+    if "projection" in case:
+        params = dataclasses.replace(params, projection=case["projection"])
     try:
         report = plan_once(
             case["object"],
@@ -57,6 +62,14 @@ def experiment_case(case: Case) -> dict[str, Any]:
     except ValueError as err:
         row = {"status": REJECTED, "reason": " ".join(str(err).split())}
     return {**row, **case}
+
+
+def row_status(row: dict[str, Any]) -> str:
+    """A row's outcome for the summary: a planning query's ``status``; for an expert episode
+    (no ``status``), ``"success"`` or ``"failure"`` (the env's ``is_success``)."""
+    if "status" in row:
+        return str(row["status"])
+    return "success" if row.get("success") else "failure"
 
 
 def check_file(path: Path, version: str) -> None:
@@ -107,7 +120,8 @@ def run_experiment(
     )
     statuses: dict[str, int] = {}
     for row in rows:
-        statuses[row["status"]] = statuses.get(row["status"], 0) + 1
+        status = row_status(row)
+        statuses[status] = statuses.get(status, 0) + 1
     return {
         "experiment": name,
         "quick": quick,

@@ -146,12 +146,16 @@ class SlideConstraints:
         return ok & in_limits
 
     # --------------------------------------------------------------- projection
-    def project(self, q: np.ndarray, q_near: np.ndarray | None = None) -> np.ndarray | None:
+    def project(
+        self, q: np.ndarray, q_near: np.ndarray | None = None, depth: bool = True
+    ) -> np.ndarray | None:
         """Newton / pseudo-inverse iterations onto the manifold; None on failure.
 
         Only violated inequalities enter the step (an active set re-evaluated every
         iteration); each step is clipped to the joint limits. ``q_near`` is unused (the
         minimum-norm step already stays close to ``q``) and kept for the search interface.
+        ``depth=False`` projects the roll and the pitch only: the contact depth is then
+        checked (within ``tolerance`` of its band), never moved toward it.
         """
         q = np.minimum(np.maximum(np.asarray(q, dtype=float), ARM_LOWER), ARM_UPPER)
         lo_s, hi_s, lo_z, hi_z = self._aim
@@ -171,13 +175,55 @@ class SlideConstraints:
             if s < s_lo or s > s_hi:  # d(-Z_F . z)/dq = -(Z_F x z) . J_w
                 rows.append(z0 * jw[1] - z1 * jw[0])
                 res.append(s - (lo_s if s < lo_s else hi_s))
-            if z < z_lo or z > z_hi:
+            if depth and (z < z_lo or z > z_hi):
                 rows.append(jac[2])
                 res.append(z - (lo_z if z < lo_z else hi_z))
             if not rows:
+                if not depth and not (z_lo - self.tolerance <= z <= z_hi + self.tolerance):
+                    return None
                 return q if self._hard_ok_one(tip) else None
             q = np.minimum(np.maximum(q - _min_norm_step(rows, res), ARM_LOWER), ARM_UPPER)
         return None
+
+    def project_ompl(
+        self, q: np.ndarray, q_near: np.ndarray | None = None, max_iters: int = 50
+    ) -> np.ndarray | None:
+        """OMPL's ``Constraint::project`` on our residuals (None on failure).
+
+        Newton's method with the least-squares (SVD) step ``J^+ f`` on all three residuals
+        (a residual inside its band is 0 with a zero gradient), while ``|f|`` >= ``tolerance``
+        and at most ``max_iters`` steps (OMPL 2.0.1's defaults: 1e-4 and 50); nothing aims
+        inside the bands and no step is clipped, so a result outside the joint limits fails.
+        Then the checked-only rules, as in :meth:`project`. ``q_near`` is unused.
+        """
+        q = np.asarray(q, dtype=float).copy()
+        tol2 = self.tolerance * self.tolerance
+        for it in range(max_iters + 1):
+            tip, jac = self.chain.jacobian(q)
+            f = self.residuals(tip)
+            if float(f @ f) < tol2:
+                break
+            if it == max_iters:
+                return None
+            jw = jac[3:]
+            (x0, x1, _), (z0, z1, _) = tip[:3, 0], tip[:3, 2]
+            rows = np.zeros((3, q.size))
+            rows[0] = x1 * jw[0] - x0 * jw[1]
+            if f[1] != 0.0:
+                rows[1] = z0 * jw[1] - z1 * jw[0]
+            if f[2] != 0.0:
+                rows[2] = jac[2]
+            q = q - np.linalg.lstsq(rows, f, rcond=None)[0]
+        in_limits = bool(((q >= ARM_LOWER) & (q <= ARM_UPPER)).all())
+        return q if in_limits and self._hard_ok_one(tip) else None
+
+    def chord_ok(self, a: np.ndarray, b: np.ndarray, pieces: int) -> bool:
+        """Do the points splitting the straight joint-space chord ``a``-``b`` into ``pieces``
+        equal parts all satisfy the constraints (:meth:`satisfied`)? (The ends are not
+        checked: they are tree nodes, already on the manifold.)"""
+        a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+        t = np.arange(1, max(int(pieces), 2)) / max(int(pieces), 2)
+        return bool(self.satisfied(a + t[:, None] * (b - a)).all())
 
     def _hard_ok_one(self, tip: np.ndarray) -> bool:
         """:meth:`hard_ok` for one pose, in plain floats."""
@@ -204,4 +250,17 @@ def _min_norm_step(rows: list[np.ndarray], res: list[float]) -> np.ndarray:
             return np.zeros(a.shape[1])
         r0, r1 = res
         return a.T @ np.array([(g11 * r0 - g01 * r1) / det, (g00 * r1 - g01 * r0) / det])
-    return a.T @ np.linalg.solve(np.array(g) + 1e-12 * np.eye(3), np.array(res))
+    (g00, g01, g02), (_, g11, g12), (_, _, g22) = g
+    g00, g11, g22 = g00 + 1e-12, g11 + 1e-12, g22 + 1e-12  # as a tiny ridge
+    c00, c01, c02 = g11 * g22 - g12 * g12, g02 * g12 - g01 * g22, g01 * g12 - g02 * g11
+    det = g00 * c00 + g01 * c01 + g02 * c02
+    if abs(det) < 1e-300:
+        return np.zeros(a.shape[1])
+    c11, c12, c22 = g00 * g22 - g02 * g02, g01 * g02 - g00 * g12, g00 * g11 - g01 * g01
+    r0, r1, r2 = res  # the symmetric adjugate times r, over det
+    y = [
+        (c00 * r0 + c01 * r1 + c02 * r2) / det,
+        (c01 * r0 + c11 * r1 + c12 * r2) / det,
+        (c02 * r0 + c12 * r1 + c22 * r2) / det,
+    ]
+    return a.T @ np.array(y)

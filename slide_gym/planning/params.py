@@ -13,6 +13,9 @@ from slide_gym.planning.ik import IKParams
 from slide_gym.planning.pair import GraspParams
 from slide_gym.task import TaskParams
 
+PROJECTIONS: tuple[str, ...] = ("steps", "nodes", "ompl", "orientation")
+"""The values of :attr:`SlideParams.projection` (the first is the default)."""
+
 
 @dataclass(frozen=True)
 class SlideParams:
@@ -33,6 +36,27 @@ class SlideParams:
     between its validated start/goal pair, then draws a new validated pair and starts a new
     search (the paper's pair-based planner "has to restart with a different pair");
     ``cbirrt-norestart`` keeps its first pair for the whole budget.
+
+    ``projection`` (one of :data:`PROJECTIONS`) chooses how the tree extension keeps to the
+    manifold; the variants model what a CBiRRT implementation of the paper's time might have
+    done (the ``relaxation`` experiment asks which makes dZ* = 0 hard):
+
+    * ``"steps"`` (default): every extension step is projected by
+      :meth:`~slide_gym.planning.constraints.SlideConstraints.project` (minimum-norm Newton on
+      the violated constraints only, aiming inside the bands, each residual within
+      ``tolerance``, at most 25 iterations); the stretch between two nodes counts as on the
+      manifold (the found path is densified by projection).
+    * ``"nodes"``: projection only at tree nodes: each new node is projected as above, but the
+      edge from its parent is the straight joint-space chord, accepted only if points on it
+      at most ``path_resolution`` of fingertip travel apart (and at least its midpoint) all
+      satisfy the constraints within ``tolerance`` (a discrete motion validator).
+    * ``"ompl"``: OMPL's ``Constraint::project`` with its defaults (OMPL 2.0.1:
+      ``CONSTRAINT_PROJECTION_TOLERANCE`` 1e-4, ``CONSTRAINT_PROJECTION_MAX_ITERATIONS`` 50):
+      Newton's method with the least-squares (SVD) step on all three residuals, until their
+      Euclidean norm is below ``tolerance``; no aiming inside the bands, no clipping to the
+      joint limits (a result outside them fails).
+    * ``"orientation"``: the projection handles the roll and the pitch band only; the contact
+      depth is checked, never projected onto, so a step that leaves the depth band fails.
     """
 
     beta0: float = 0.9
@@ -55,6 +79,7 @@ class SlideParams:
     max_iterations: int | None = None  # search iterations before giving up (None: no cap)
     restart_iterations: int = 100  # cbirrt: iterations on one pair before drawing a new one
     distance_weights: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0, 0.6, 0.6, 0.3)
+    projection: str = "steps"  # how the extension keeps to the manifold (PROJECTIONS)
     ik: IKParams = field(default_factory=IKParams)
     grasp: GraspParams = field(default_factory=GraspParams)
 
@@ -96,6 +121,10 @@ class SlideParams:
         attempts = self.shortcut_attempts
         if isinstance(attempts, bool) or not isinstance(attempts, int) or attempts < 0:
             raise ValueError(f"shortcut_attempts must be an integer >= 0, got {attempts!r}")
+        if not isinstance(self.projection, str) or self.projection not in PROJECTIONS:
+            raise ValueError(
+                f"projection must be one of {', '.join(PROJECTIONS)}, got {self.projection!r}"
+            )
         w = np.asarray(self.distance_weights, dtype=float)
         if w.shape != (7,) or not (np.isfinite(w).all() and (w > 0).all()):
             raise ValueError("distance_weights must be 7 finite positive numbers")

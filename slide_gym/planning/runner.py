@@ -9,7 +9,9 @@ import numpy as np
 
 from slide_gym.geometry import ObjectShape, TableShape, get_table
 from slide_gym.planning.api import SlideParams, TopSlidePlanner, TopSlideProblem
+from slide_gym.planning.ompl_reference import OmplReferencePlanner
 from slide_gym.planning.result import PlanResult, check_time_budget
+from slide_gym.planning.search import REFERENCE_PLANNERS
 from slide_gym.task import check_scene, scene_object, seeded_start_pose
 
 
@@ -50,6 +52,8 @@ def plan_once(
     """Solve one problem; without ``object_pose`` a valid random start pose comes from ``seed``.
 
     ``obj`` may be ``"procedural"`` (the plate of ``seed``); ``thickness`` (m) overrides it.
+    ``planner`` is one of ``PLANNERS`` or of ``REFERENCE_PLANNERS`` (``"ompl"``: OMPL's
+    RRTConnect on our manifold, see :mod:`slide_gym.planning.ompl_reference`).
     """
     check_time_budget(time_budget)
     table_shape = get_table(table)
@@ -59,7 +63,10 @@ def plan_once(
     if object_pose is None:
         object_pose = seeded_start_pose(shape, table_shape, seed)
     problem = TopSlideProblem(shape, table_shape, object_pose, params)
-    solver = TopSlidePlanner(problem, planner, plan_rng)
+    if planner in REFERENCE_PLANNERS:
+        solver: TopSlidePlanner = OmplReferencePlanner(problem, plan_rng)
+    else:
+        solver = TopSlidePlanner(problem, planner, plan_rng)
     try:
         result = solver.solve(time_budget)
     finally:

@@ -31,6 +31,10 @@ PLANNERS: tuple[str, ...] = ("regions", "cbirrt2", "cbirrt", "cbirrt-norestart")
 """The planner names (one list for the whole project): the paper's planner, the two
 baselines, and ``cbirrt`` without restarts (its first validated pair for the whole budget),
 kept for reference."""
+REFERENCE_PLANNERS: tuple[str, ...] = ("ompl",)
+"""Planners from outside libraries, not built on this search core: ``"ompl"`` is OMPL's
+RRTConnect on our manifold (:mod:`slide_gym.planning.ompl_reference`, the ``ompl`` extra);
+:func:`slide_gym.planning.runner.plan_once` and ``slide-gym plan`` accept them."""
 PAIR_PLANNERS = ("cbirrt", "cbirrt-norestart")
 """The planners that search between one given start and one given goal configuration."""
 _SIDES = ("start", "goal")

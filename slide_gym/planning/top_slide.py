@@ -125,8 +125,19 @@ class TopSlidePlanner(Planner):
         return self._pair_cache[key]
 
     def project(self, q: np.ndarray, q_near: np.ndarray | None = None) -> np.ndarray | None:
-        """Projection onto the relaxed manifold (None if it fails or breaks a checked rule)."""
-        return self.constraints.project(q, q_near)
+        """Projection onto the relaxed manifold (None if it fails or breaks a checked rule), as
+        ``SlideParams.projection`` says."""
+        mode = self.problem.params.projection
+        if mode == "ompl":
+            return self.constraints.project_ompl(q, q_near)
+        return self.constraints.project(q, q_near, depth=mode != "orientation")
+
+    def chord_valid(self, a: np.ndarray, b: np.ndarray) -> bool:
+        """The ``"nodes"`` projection's edge check: the straight chord between two tree nodes
+        satisfies the constraints at points at most ``path_resolution`` of fingertip travel
+        apart (at least at its midpoint)."""
+        pieces = math.ceil(self.tip_distance(a, b) / self.problem.params.path_resolution)
+        return self.constraints.chord_ok(a, b, max(pieces, 2))
 
     def collides(self, q: np.ndarray) -> bool:
         """Collision in ``"sliding"`` mode (finger A may sink into the table top)."""
@@ -141,6 +152,7 @@ class TopSlidePlanner(Planner):
             pair_valid=self.pair_valid,
             sample_start_root=self.start_region.sample if start else None,
             sample_goal_root=self.goal_region.sample if goal else None,
+            motion_valid=self.chord_valid if self.problem.params.projection == "nodes" else None,
             distance_weights=self.problem.params.distance_weights,
         )
 
@@ -283,17 +295,9 @@ class TopSlidePlanner(Planner):
         search_deadline = deadline - min(0.05 * budget, 0.25)
         self.validator.deadline = search_deadline
         self.start_region.deadline = self.goal_region.deadline = search_deadline
-        if self.problem.goal_band.is_empty:
-            reason = "no stretch of the table edge allows a side grasp within the arm's reach"
-            return PlanResult(PlanStatus.INFEASIBLE, reason, extra=self._extra())
-        reach, p = self.problem.object.circumradius, self.problem.params
-        if reach - p.centroid_margin < p.u_star:
-            reason = (
-                f"the plate cannot overhang u* = {p.u_star:.3g} m with its centroid "
-                f"{p.centroid_margin:.3g} m inside the edge: no point of it lies farther than "
-                f"{reach:.3g} m from its centroid"
-            )
-            return PlanResult(PlanStatus.INFEASIBLE, reason, extra=self._extra())
+        bad = self._infeasible()
+        if bad is not None:
+            return bad
         starts, goals, why = self._initial_roots(search_deadline, stats)
         if why is not None:
             return self._no_roots(why)
@@ -339,6 +343,21 @@ class TopSlidePlanner(Planner):
                 failures += 1
                 continue
             return self._solved(res, dense, failures, restarts)
+
+    def _infeasible(self) -> PlanResult | None:
+        """An ``INFEASIBLE`` result for scenes no planner can solve, else None."""
+        if self.problem.goal_band.is_empty:
+            reason = "no stretch of the table edge allows a side grasp within the arm's reach"
+            return PlanResult(PlanStatus.INFEASIBLE, reason, extra=self._extra())
+        reach, p = self.problem.object.circumradius, self.problem.params
+        if reach - p.centroid_margin < p.u_star:
+            reason = (
+                f"the plate cannot overhang u* = {p.u_star:.3g} m with its centroid "
+                f"{p.centroid_margin:.3g} m inside the edge: no point of it lies farther than "
+                f"{reach:.3g} m from its centroid"
+            )
+            return PlanResult(PlanStatus.INFEASIBLE, reason, extra=self._extra())
+        return None
 
     def _period_params(self, stats: PlannerStats) -> SearchParams:
         """The search settings of the next search: for ``cbirrt``, capped at

@@ -30,12 +30,12 @@ def _values(cases: list[dict[str, Any]], key: str) -> set[Any]:
 def test_full_sizes_follow_the_issue() -> None:
     names = ("fig10", "fig11", "fig12", "restart")
     fig10, fig11, fig12, restart = (experiment_cases(n, "v") for n in names)
-    assert (len(fig10), len(fig11), len(fig12), len(restart)) == (720, 3100, 500, 600)
+    assert (len(fig10), len(fig11), len(fig12), len(restart)) == (3600, 3100, 500, 600)
     for cases in (fig10, fig11, fig12, restart):
         assert _values(cases, "time_budget") == {60.0} and _values(cases, "code_version") == {"v"}
     assert _values(fig10, "object") == PAPER | {"Y", "A", "L", "E"}
     assert _values(fig10, "table") == {"square", "round", "long", "triangle"}
-    assert _values(fig10, "scale") == {1.0, 0.5} and _values(fig10, "seed") == set(range(10))
+    assert _values(fig10, "scale") == {1.0, 0.5} and _values(fig10, "seed") == set(range(50))
     assert _values(fig10, "dz") == {json.dumps(DZ_2CM)} and _values(fig10, "n_star") == {100}
     problems: dict[tuple[str, str], set[tuple[str, int]]] = {}
     for c in fig11:
@@ -54,7 +54,7 @@ def test_full_sizes_follow_the_issue() -> None:
     assert _values(fig11, "table") == _values(fig12, "table") == {"square"}
     assert _values(fig12, "n_star") == {1, 10, 100, 1000, 10000}
     assert _values(fig12, "dz") == {json.dumps(DZ_2CM)} and _values(fig12, "seed") == set(range(20))
-    assert fig10[0]["seed"] == 0 and fig10[-1]["seed"] == 9  # the pose is the outer loop
+    assert fig10[0]["seed"] == 0 and fig10[-1]["seed"] == 49  # the pose is the outer loop
     sweep = {(c["planner"], c["restart_iterations"]) for c in restart}
     assert sweep == {("cbirrt", r) for r in (25, 50, 100, 200, 400)} | {("cbirrt-norestart", 100)}
     assert _values(restart, "dz") == {json.dumps(DZ_2CM)} and _values(restart, "table") == {

@@ -56,18 +56,14 @@ QUICK_OBJECTS = ("square", "L")
 """``--quick``: one paper object and one letter, one start pose each, square table only."""
 QUICK_N_STARS = (1, 100)
 """fig12's N* with ``--quick``."""
-POSES = {"fig10": 10, "fig11": 100, "fig12": 20, "restart": 20, "agents": 10, "relaxation": 2}
+POSES = {"fig10": 50, "fig11": 100, "fig12": 20, "restart": 20, "agents": 10, "relaxation": 2}
 """Random start poses per object (seeds 0..n-1) at full size; the pose is the outer loop,
-so an interrupted run holds a balanced share of every condition. fig10's 10 are cut from the
-issue's 50 (see :data:`CUTS`); fig12's 20 (the issue gives
+so an interrupted run holds a balanced share of every condition. fig12's 20 (the issue gives
 none): 5 N* x 5 objects x 20 = 500 queries, a fifth of fig11; the restart sweep's 20: 6
 settings x 5 objects x 20 = 600 queries; agents: 10 seeds per object and table; relaxation:
 2 expert seeds per object, table and contact band (its planner-variant queries have their
 own :data:`VARIANT_POSES`)."""
 CUTS = {
-    "fig10": "10 start poses per object, not the issue's 50 (720 queries, not 3600): "
-    "half-scale queries often spend their whole 60 s budget, so the full size would take "
-    "many hours on a 2-core machine",
     "fig11": f"OMPL on the first {REFERENCE_POSES} of the 100 poses "
     f"({5 * REFERENCE_POSES} queries, not 500)",
 }
@@ -296,7 +292,7 @@ _BUILDERS = {
 def experiment_cases(name: str, version: str, quick: bool = False) -> list[Case]:
     """The cases of experiment ``name`` (one of :data:`EXPERIMENTS`), stamped ``version``.
 
-    Full size: fig10 2 scales x 4 tables x 9 objects x 10 poses (720); fig11 5 objects x 100
+    Full size: fig10 2 scales x 4 tables x 9 objects x 50 poses (3600); fig11 5 objects x 100
     poses x (3 dZ* + 3 baselines) plus OMPL on 20 poses (3100); fig12 5 N* x 5 objects x 20
     poses (500); restart 6 settings x 5 objects x 20 poses (600); 60 s each; agents 3 planners x
     9 objects x 4 tables x 10 seeds (1080 episodes, 10 s planning each); relaxation 4 contact

@@ -214,7 +214,8 @@ def test_report_plots_and_quotes_the_paper(
     assert "99 % at 60 s" in text and "lowest at N* = 100" in text
     row = next(line for line in text.splitlines() if line.startswith("| cbirrt-norestart |"))
     assert "0.0 % (0-" in row and "unsolved" in row
-    assert "**not met** (100.0 % within 1 s, median 0.50 s" in text
+    assert "**not met**: 100.0 % within 1 s (met), median 0.500 s (missed by 350 ms)" in text
+    assert "Target, half scale within 1.5x of full scale's mean planning time" in text
 
 
 def test_report_refuses_an_empty_folder(tmp_path: Path, capsys: pytest.CaptureFixture[str]):

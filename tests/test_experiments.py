@@ -221,3 +221,22 @@ def test_report_plots_and_quotes_the_paper(
 def test_report_refuses_an_empty_folder(tmp_path: Path, capsys: pytest.CaptureFixture[str]):
     assert main(["report", str(tmp_path)]) == 2
     assert "no experiment results" in capsys.readouterr().err
+
+
+def test_report_reads_compressed_files_and_prefers_the_larger_then_current(
+    tmp_path: Path,
+) -> None:
+    import gzip
+
+    from slide_gym.experiments.report import load_experiments
+
+    def rows(version: str, n: int) -> str:
+        case = {"experiment": "fig12", "code_version": version}
+        return "".join(json.dumps({"case": case, "status": "solved"}) + "\n" for _ in range(n))
+
+    current = version.code_version()
+    (tmp_path / "fig12-old.jsonl.gz").write_bytes(gzip.compress(rows("old", 3).encode()))
+    (tmp_path / "fig12-new.jsonl").write_text(rows(current, 2))
+    assert load_experiments(tmp_path)["fig12"][0] == "old"  # the larger file wins
+    (tmp_path / "fig12-new.jsonl").write_text(rows(current, 3))
+    assert load_experiments(tmp_path)["fig12"][0] == current  # a tie: the current code's

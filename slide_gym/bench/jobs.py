@@ -8,6 +8,7 @@ skip finished cases and to pick this run's results out of a file that may hold o
 
 from __future__ import annotations
 
+import gzip
 import json
 import multiprocessing as mp
 import os
@@ -27,11 +28,13 @@ def case_key(case: Case) -> str:
 
 
 def load_results(path: Path) -> list[dict[str, Any]]:
-    """Every complete JSON line of a results file (a torn last line from a kill is skipped)."""
+    """Every complete JSON line of a results file (a torn last line from a kill is skipped);
+    ``*.gz`` files (committed results are stored compressed) are read through gzip."""
     if not path.exists():
         return []
     rows = []
-    for line in path.read_text().splitlines():
+    text = gzip.decompress(path.read_bytes()).decode() if path.suffix == ".gz" else None
+    for line in (text if text is not None else path.read_text()).splitlines():
         try:
             rows.append(json.loads(line))
         except json.JSONDecodeError:

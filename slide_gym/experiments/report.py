@@ -25,6 +25,7 @@ from slide_gym.experiments.specs import (
     experiment_cases,
 )
 from slide_gym.experiments.stats import mean_and_sem, wilson_interval
+from slide_gym.experiments.version import code_version
 
 MARKS = (1.0, 5.0, 10.0, 20.0, 60.0)
 """Budgets (s) at which success rates are tabulated."""
@@ -47,17 +48,20 @@ SPEED = (
 
 
 def load_experiments(results: Path) -> dict[str, tuple[str, list[dict[str, Any]]]]:
-    """Experiment name -> (code version, rows) from the largest file of each experiment."""
-    best: dict[str, tuple[str, list[dict[str, Any]]]] = {}
-    for path in sorted(results.glob("*.jsonl")):
+    """Experiment name -> (code version, rows) from the largest file of each experiment
+    (``*.jsonl`` or gzip-compressed ``*.jsonl.gz``); on a tie, the current code version's."""
+    current = code_version()
+    best: dict[str, tuple[tuple[int, bool], str, list[dict[str, Any]]]] = {}
+    for path in sorted([*results.glob("*.jsonl"), *results.glob("*.jsonl.gz")]):
         rows = [r for r in load_results(path) if "case" in r]
         if not rows:
             continue
         name = rows[0]["case"]["experiment"] + ("-quick" if "-quick-" in path.name else "")
         version = rows[0]["case"]["code_version"]
-        if name not in best or len(rows) > len(best[name][1]):
-            best[name] = (version, rows)
-    return best
+        rank = (len(rows), version == current)
+        if name not in best or rank > best[name][0]:
+            best[name] = (rank, version, rows)
+    return {name: (version, rows) for name, (_, version, rows) in best.items()}
 
 
 def condition(row: dict[str, Any]) -> str:
@@ -169,7 +173,7 @@ def write_report(results: Path, out: Path | None = None) -> Path:
         raise ValueError(f"results folder {str(results)!r} does not exist")
     experiments = load_experiments(results)
     if not experiments:
-        raise ValueError(f"no experiment results (*.jsonl) in {str(results)!r}")
+        raise ValueError(f"no experiment results (*.jsonl, *.jsonl.gz) in {str(results)!r}")
     out = out or results
     out.mkdir(parents=True, exist_ok=True)
     lines = [

@@ -177,21 +177,37 @@ AGENT_BUDGET = 10.0
 """The agents' planning seconds per episode (the expert's default)."""
 
 
+def episode_case(
+    experiment: str,
+    obj: str,
+    table: str,
+    seed: int,
+    version: str,
+    planner: str,
+    time_budget: float,
+    dz: list[float] | None = None,
+) -> Case:
+    """One expert episode on :data:`~slide_gym.EXPERT_ENV_ID` (``dz``, if given, replaces the
+    expert's contact band for every plan of the episode)."""
+    return {
+        "experiment": experiment,
+        "object": obj,
+        "table": table,
+        "scale": 1.0,
+        "planner": planner,
+        **({} if dz is None else {"dz": dz}),
+        "seed": seed,
+        "time_budget": time_budget,
+        "env_id": EXPERT_ENV_ID,
+        "code_version": version,
+    }
+
+
 def _agents(version: str, objects: Sequence[str], tables: Sequence[str], **kw: Any) -> list[Case]:
     """The expert with each planner on every object and table (episode seed = pose seed)."""
     budget = min(kw["time_budget"], AGENT_BUDGET)
     return [
-        {
-            "experiment": "agents",
-            "object": o,
-            "table": t,
-            "scale": 1.0,
-            "planner": p,
-            "seed": i,
-            "time_budget": budget,
-            "env_id": EXPERT_ENV_ID,
-            "code_version": version,
-        }
+        episode_case("agents", o, t, i, version, p, budget)
         for i in range(kw["poses"])
         for t in tables
         for o in objects
@@ -232,18 +248,7 @@ def _relaxation(
     bands = [dz_band(d) for d in DZ_STARS] + [list(EXPERT_DZ)]
     expert = [
         [
-            {
-                "experiment": "relaxation",
-                "object": o,
-                "table": t,
-                "scale": 1.0,
-                "planner": "regions",
-                "dz": dz,
-                "seed": i,
-                "time_budget": budget,
-                "env_id": EXPERT_ENV_ID,
-                "code_version": version,
-            }
+            episode_case("relaxation", o, t, i, version, "regions", budget, dz)
             for t in tables
             for o in objects
             for dz in bands

@@ -13,6 +13,7 @@ check.
 
 from __future__ import annotations
 
+import functools
 import itertools
 from collections.abc import Sequence
 
@@ -196,8 +197,10 @@ class CollisionChecker:
         self.sim.close()
 
 
-def _bisection_order(n: int) -> list[int]:
-    """1..n with n first, then the midpoints of ever finer halvings (each index once)."""
+@functools.lru_cache(maxsize=256)
+def _bisection_order(n: int) -> tuple[int, ...]:
+    """1..n with n first, then the midpoints of ever finer halvings (each index once; cached:
+    segment checks ask for the same few lengths over and over)."""
     order, seen = [n], {0, n}
     spans = [(0, n)]
     while spans:
@@ -211,4 +214,4 @@ def _bisection_order(n: int) -> list[int]:
                 order.append(mid)
             nxt += [(lo, mid), (mid, hi)]
         spans = nxt
-    return order
+    return tuple(order)

@@ -205,17 +205,22 @@ class SlideConstraints:
                 break
             if it == max_iters:
                 return None
-            jw = jac[3:]
-            (x0, x1, _), (z0, z1, _) = tip[:3, 0], tip[:3, 2]
-            rows = np.zeros((3, q.size))
-            rows[0] = x1 * jw[0] - x0 * jw[1]
-            if f[1] != 0.0:
-                rows[1] = z0 * jw[1] - z1 * jw[0]
-            if f[2] != 0.0:
-                rows[2] = jac[2]
-            q = q - np.linalg.lstsq(rows, f, rcond=None)[0]
+            q = q - np.linalg.lstsq(self.residual_jacobian(tip, jac), f, rcond=None)[0]
         in_limits = bool(((q >= ARM_LOWER) & (q <= ARM_UPPER)).all())
         return q if in_limits and self._hard_ok_one(tip) else None
+
+    def residual_jacobian(self, tip: np.ndarray, jac: np.ndarray) -> np.ndarray:
+        """d :meth:`residuals` / dq (3, 7) at one pose ``tip`` with its geometric Jacobian
+        ``jac``; a band's row is zero inside the band, where its residual is flat."""
+        jw = jac[3:]
+        (x0, x1, _), (z0, z1, z2) = tip[:3, 0], tip[:3, 2]
+        rows = np.zeros((3, jac.shape[1]))
+        rows[0] = x1 * jw[0] - x0 * jw[1]  # d(X_F . z)/dq = (X_F x z) . J_w
+        if not self.sin_lo <= -z2 <= self.sin_hi:  # d(-Z_F . z)/dq = -(Z_F x z) . J_w
+            rows[1] = z0 * jw[1] - z1 * jw[0]
+        if not self.band.z_lo <= tip[2, 3] <= self.band.z_hi:
+            rows[2] = jac[2]
+        return rows
 
     def chord_ok(self, a: np.ndarray, b: np.ndarray, pieces: int) -> bool:
         """Do the points splitting the straight joint-space chord ``a``-``b`` into ``pieces``

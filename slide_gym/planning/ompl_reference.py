@@ -28,8 +28,7 @@ import numpy as np
 
 from slide_gym.planning.problem import TopSlideProblem
 from slide_gym.planning.result import OutOfTime, PlannerStats, PlanResult, PlanStatus
-from slide_gym.planning.search import DensifyError, densify
-from slide_gym.planning.smoothing import shortcut_path
+from slide_gym.planning.search import DensifyError
 from slide_gym.planning.top_slide import TopSlidePlanner
 from slide_gym.robot.model import ARM_LOWER, ARM_UPPER
 
@@ -61,13 +60,7 @@ def ompl_types() -> SimpleNamespace:
 
         def jacobian(self, x: np.ndarray, out: np.ndarray) -> None:
             cons = self.planner.constraints
-            tip, jac = cons.chain.jacobian(np.array(x))
-            (x0, x1, _), (z0, z1, z2), z = tip[:3, 0], tip[:3, 2], tip[2, 3]
-            jw = jac[3:]
-            out[0] = x1 * jw[0] - x0 * jw[1]  # d(X_F . z)/dq
-            inside_s = cons.sin_lo <= -z2 <= cons.sin_hi  # a band residual is flat inside
-            out[1] = 0.0 if inside_s else z0 * jw[1] - z1 * jw[0]
-            out[2] = 0.0 if cons.band.z_lo <= z <= cons.band.z_hi else jac[2]
+            out[:] = cons.residual_jacobian(*cons.chain.jacobian(np.array(x)))
 
         def project(self, x: np.ndarray) -> bool:
             q = self.planner._ompl_project(np.array(x))
@@ -261,7 +254,7 @@ class OmplReferencePlanner(TopSlidePlanner):
                     return PlanResult(PlanStatus.TIMEOUT, reason, extra=extra)
                 raw = np.array([_config(s) for s in ss.getSolutionPath().getStates()])
                 try:
-                    dense = self._finish(raw, deadline, hard)
+                    dense = self.finish_path(raw, deadline, hard)
                 except OutOfTime:
                     reason = (
                         "found a path but shortcutting and densifying it did not fit in the budget"
@@ -282,10 +275,3 @@ class OmplReferencePlanner(TopSlidePlanner):
                 return self._solved(res, dense, failures, 0)
         finally:
             del ss  # before OMPL's other objects (nanobind reports leaks otherwise)
-
-    def _finish(self, raw: np.ndarray, deadline: float, hard: float) -> np.ndarray:
-        """Shortcut and densify ``raw`` as :class:`TopSlidePlanner` does its paths."""
-        p = self.problem.params
-        fns = self.functions(start=False, goal=False)
-        path = shortcut_path(raw, fns, self.search_params, self.rng, p.shortcut_attempts, deadline)
-        return densify(path, p.path_resolution, self._dense_project(hard), self.tip_distance)

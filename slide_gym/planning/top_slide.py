@@ -319,20 +319,7 @@ class TopSlidePlanner(Planner):
                 res.extra = {**self._extra(), **res.extra, **extra}
                 return res
             try:
-                path = shortcut_path(
-                    res.path,
-                    fns,
-                    self.search_params,
-                    self.rng,
-                    self.problem.params.shortcut_attempts,
-                    search_deadline,
-                )
-                dense = densify(
-                    path,
-                    self.problem.params.path_resolution,
-                    self._dense_project(hard),
-                    self.tip_distance,
-                )
+                dense = self.finish_path(res.path, search_deadline, hard)
             except OutOfTime:
                 reason = "found a path but shortcutting and densifying it did not fit in the budget"
                 return PlanResult(PlanStatus.TIMEOUT, reason, extra=self._extra())
@@ -388,6 +375,14 @@ class TopSlidePlanner(Planner):
             return PlanResult(PlanStatus.INFEASIBLE, reason, extra=extra)
         reason = f"time budget exhausted while drawing the {side}"
         return PlanResult(PlanStatus.TIMEOUT, reason, extra=extra)
+
+    def finish_path(self, raw: np.ndarray, deadline: float, hard: float) -> np.ndarray:
+        """A found slide shortcut (until ``deadline``) and densified by projection (until
+        ``hard``); raises :class:`OutOfTime` or :class:`DensifyError` as those do."""
+        p = self.problem.params
+        fns = self.functions(start=False, goal=False)
+        path = shortcut_path(raw, fns, self.search_params, self.rng, p.shortcut_attempts, deadline)
+        return densify(path, p.path_resolution, self._dense_project(hard), self.tip_distance)
 
     def _dense_project(self, hard: float):
         def project(q: np.ndarray, q_near: np.ndarray) -> np.ndarray | None:

@@ -113,10 +113,13 @@ def play_episode(
     frames: list[np.ndarray] | None = None,
     on_reset: Callable[[dict[str, Any], dict[str, Any]], None] | None = None,
     on_step: StepHook | None = None,
+    perturb: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> EpisodeRecord:
     """Reset ``env`` with ``seed`` and ``options``, let ``agent`` act until the episode ends,
     and return its record. ``frames`` collects ``env.render()`` every :data:`VIDEO_EVERY`
-    steps; ``on_reset(obs, info)`` and ``on_step`` see every observation."""
+    steps; ``on_reset(obs, info)`` and ``on_step`` see every observation. ``perturb(action)``
+    gives the action executed instead of the agent's (DART's noise); ``on_step`` sees the
+    executed one."""
     base = env.unwrapped
     wall = time.perf_counter()
     obs, info = env.reset(seed=seed, options=options)
@@ -128,6 +131,8 @@ def play_episode(
     steps, max_lift, terminated, truncated = 0, 0.0, False, False
     while not (terminated or truncated):
         action, _ = agent.predict(obs, episode_start=np.array([steps == 0]))
+        if perturb is not None:
+            action = perturb(np.asarray(action))
         obs, reward, terminated, truncated, info = env.step(action)
         if on_step is not None:
             on_step(action, obs, float(reward), terminated, truncated, info)

@@ -1,4 +1,5 @@
-"""Run an agent (a saved SB3 model or a planner) in a slide-gym env and report its success.
+"""Run an agent (a saved SB3 model, a diffusion policy or a planner) in a slide-gym env and
+report its success.
 
 :func:`evaluate` runs ``episodes`` episodes on held-out reset seeds (``seed``, ``seed + 1``,
 ...) and returns the success rate with its Wilson 95 % interval (:func:`wilson_interval`).
@@ -19,6 +20,12 @@ from slide_gym import DICT_ENV_IDS
 from slide_gym.experiments.stats import wilson_interval
 from slide_gym.planning.api import PLANNERS
 from slide_gym.planning.result import check_time_budget
+
+TEST_SEED = 10_000
+"""First reset seed of the test episodes (collections start at 0)."""
+VALIDATION_SEED = 20_000
+"""First reset seed of the episodes that choose a learned policy's checkpoint: not a test
+seed, so the choice does not peek at the test."""
 
 
 def _is_int(value: Any) -> bool:
@@ -80,12 +87,38 @@ def _planner_agent(planner: str, env: gym.Env, seed: int, time_budget: float) ->
     )
 
 
+def _open_agent(agent: Any) -> tuple[str | None, Any, dict[str, Any]]:
+    """``(planner name or None, policy with predict or None, env_kwargs of its card)``."""
+    if hasattr(agent, "predict"):
+        return None, agent, dict(getattr(agent, "card", {}).get("env_kwargs", {}))
+    if isinstance(agent, str) and agent in PLANNERS:
+        return agent, None, {}
+    from agents.learned.policy import CARD_FILE, DiffusionPolicy, is_policy_dir
+
+    if Path(agent).is_dir():
+        if not is_policy_dir(agent):
+            raise ValueError(
+                f"{str(agent)!r} is a folder without a saved policy (policy.pt); "
+                "train one with `slide-gym train-dp DATASET_ID --out DIR`"
+            )
+        policy = DiffusionPolicy.load(agent)
+        card = json.loads((Path(agent) / CARD_FILE).read_text())
+        return None, policy, dict(card.get("env_kwargs", {}))
+    model_path = _model_file(agent)
+    if model_path is None:
+        raise ValueError(
+            f"agent must be a planner ({', '.join(PLANNERS)}), a policy folder (from "
+            f"train-dp) or an existing SB3 model .zip file, got {str(agent)!r}"
+        )
+    return None, load_model(model_path), dict(read_model_card(model_path).get("env_kwargs", {}))
+
+
 def evaluate(
-    agent: str | Path,
+    agent: Any,
     env_id: str,
     *,
     episodes: int,
-    seed: int = 10_000,
+    seed: int = TEST_SEED,
     env_kwargs: dict[str, Any] | None = None,
     time_budget: float = 10.0,
     progress: bool = False,
@@ -95,15 +128,17 @@ def evaluate(
     seeds ``seed``, ``seed + 1``, ... and report how often it succeeded.
 
     Args:
-        agent: a saved SB3 model (``.zip``; PPO, else SAC; acts with ``deterministic=True``)
-            or a planner name (``"regions"``, ``"cbirrt"``, ``"cbirrt2"``: a
+        agent: a saved SB3 model (``.zip``; PPO, else SAC; acts with ``deterministic=True``),
+            a diffusion-policy folder (``slide-gym train-dp``), any object with SB3's
+            ``predict``, or a planner name (``"regions"``, ``"cbirrt"``, ``"cbirrt2"``: a
             :class:`~agents.planner_agent.PlannerAgent` per episode, seeded with the episode's
             seed, that knows the episode's object and table).
         env_id: one of ``slide_gym.DICT_ENV_IDS``.
         episodes: how many episodes (>= 1).
-        seed: the first reset seed (default 10000: held out from collection seeds from 0).
-        env_kwargs: env arguments; for a model, those of its ``<model>.json`` card (written by
-            :func:`agents.bc.write_model_card`) are the defaults these override.
+        seed: the first reset seed (default :data:`TEST_SEED`: held out from collection seeds
+            from 0 and from the validation seeds of training).
+        env_kwargs: env arguments; for a saved policy, those of its card (``<model>.json`` or
+            ``policy.json``) are the defaults these override.
         time_budget: the planner's seconds per episode (planners only).
         progress: print one line per episode to stderr.
         max_steps: stop an episode after this many steps and count it as a failure
@@ -122,27 +157,16 @@ def evaluate(
         raise ValueError(f"max_steps must be a positive integer or None, got {max_steps!r}")
     if env_id not in DICT_ENV_IDS:
         raise ValueError(f"env_id must be one of {', '.join(DICT_ENV_IDS)}, got {env_id!r}")
-    planner = agent if isinstance(agent, str) and agent in PLANNERS else None
-    model_path = None if planner else _model_file(agent)
-    if planner is None and model_path is None:
-        raise ValueError(
-            f"agent must be a planner ({', '.join(PLANNERS)}) or an existing SB3 model .zip "
-            f"file, got {str(agent)!r}"
-        )
-    kwargs: dict[str, Any] = {}
+    planner, model, kwargs = _open_agent(agent)
     if planner:
         check_time_budget(time_budget)
-    else:
-        assert model_path is not None
-        kwargs.update(read_model_card(model_path).get("env_kwargs", {}))
     kwargs.update(env_kwargs or {})
 
-    model = load_model(model_path) if model_path is not None else None
     env = gym.make(env_id, **kwargs)
     wall = time.perf_counter()
     results: list[dict[str, Any]] = []
     try:
-        if model is not None:
+        if model is not None and hasattr(model, "observation_space"):
             for what, mine, theirs in (
                 ("observation", model.observation_space, env.observation_space),
                 ("action", model.action_space, env.action_space),
@@ -161,10 +185,11 @@ def evaluate(
                 while not (terminated or truncated):
                     if max_steps is not None and steps >= max_steps:
                         break
+                    start = np.array([steps == 0])
                     if expert is not None:
-                        action, _ = expert.predict(obs, episode_start=np.array([steps == 0]))
+                        action, _ = expert.predict(obs, episode_start=start)
                     else:
-                        action, _ = model.predict(obs, deterministic=True)
+                        action, _ = model.predict(obs, episode_start=start, deterministic=True)
                     obs, reward, terminated, truncated, info = env.step(action)
                     steps += 1
                     total += float(reward)

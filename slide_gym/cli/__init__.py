@@ -12,7 +12,7 @@ import sys
 from collections.abc import Sequence
 
 from slide_gym import __version__
-from slide_gym.cli import bench, commands, data, experiment
+from slide_gym.cli import bench, commands, data, experiment, learn
 from slide_gym.cli.args import HelpFormatter, check_seed, examples_epilog
 
 EXAMPLES = (
@@ -38,6 +38,7 @@ def build_parser() -> argparse.ArgumentParser:
     bench.add_parsers(sub)
     experiment.add_parsers(sub)
     data.add_parsers(sub)
+    learn.add_parsers(sub)
     return parser
 
 

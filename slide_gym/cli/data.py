@@ -29,6 +29,7 @@ def _cmd_collect(args: argparse.Namespace) -> int:
         time_budget=args.time_budget,
         seed=args.seed,
         only_success=args.only_success,
+        action_noise=args.action_noise,
     )
     summary = collect(
         config,
@@ -202,6 +203,15 @@ def add_parsers(sub: Any) -> None:
         "--only-success",
         action="store_true",
         help="keep only successful episodes, running further seeds until N succeed",
+    )
+    p.add_argument(
+        "--action-noise",
+        type=float,
+        default=0.0,
+        metavar="SIGMA",
+        help="DART: execute the expert's arm actions plus seeded Gaussian noise of this "
+        "standard deviation (action units) and store its clean actions as labels "
+        "(infos['expert_action'])",
     )
     p.set_defaults(func=_cmd_collect)
 

@@ -25,7 +25,7 @@ import numpy as np
 from slide_gym.bench.jobs import check_backend, load_results, run_cases
 from slide_gym.datasets.config import CollectConfig, check_dataset_id
 from slide_gym.datasets.recording import RecordedEpisode, record_episode
-from slide_gym.datasets.store import build_dataset, dataset_metadata
+from slide_gym.datasets.store import build_dataset, dataset_metadata, local_dataset_ids
 
 MAX_TRIES_PER_EPISODE = 20
 """``only_success`` gives up after this many episodes per one asked for."""
@@ -161,7 +161,7 @@ def _build(
         "total_steps": steps,
     }
     existing = None
-    if dataset_id in minari.list_local_datasets():
+    if dataset_id in local_dataset_ids():
         existing = minari.load_dataset(dataset_id)
         if dataset_metadata(existing).get("seeds") != seeds:
             existing = None
@@ -199,7 +199,6 @@ def _build(
 
 def _claim(stage: Path, config: CollectConfig, dataset_id: str) -> None:
     """Tie the staging folder to ``config``; a ValueError if the id is another collection's."""
-    import minari
 
     path = stage / "config.json"
     if path.exists():
@@ -211,7 +210,7 @@ def _claim(stage: Path, config: CollectConfig, dataset_id: str) -> None:
                 f"({'; '.join(diff)}, new != existing); use a new id (e.g. bump -vK)"
             )
         return
-    if dataset_id in minari.list_local_datasets():
+    if dataset_id in local_dataset_ids():
         raise ValueError(
             f"dataset {dataset_id!r} exists and was not collected here (no staging folder "
             f"{stage}); use a new id, or delete it with `minari delete {dataset_id}`"

@@ -20,14 +20,17 @@ from slide_gym.envs.scene import SceneChoice
 from slide_gym.planning.api import PLANNERS
 from slide_gym.planning.result import check_time_budget
 
-DATASET_ID = re.compile(r"^[A-Za-z0-9_.-]{2,}/[A-Za-z0-9_.-]+-v\d+$")
+MAX_ACTION_NOISE = 1.0
+"""Largest DART noise: one standard deviation spans half the action range."""
+DATASET_ID = re.compile(r"^[A-Za-z0-9_-]{2,}/[A-Za-z0-9_-]+-v\d+$")
+"""Minari's id form with a namespace (Minari refuses a ``.`` anywhere in an id)."""
 
 
 def check_dataset_id(dataset_id: str) -> str:
     """``dataset_id`` if it reads ``NAMESPACE/NAME-vK`` (Minari's form), else a ValueError."""
     if not isinstance(dataset_id, str) or not DATASET_ID.match(dataset_id):
         raise ValueError(
-            f"dataset id must read NAMESPACE/NAME-vK (namespace of 2+ letters, digits, '_.-'; "
+            f"dataset id must read NAMESPACE/NAME-vK (namespace of 2+ letters, digits, '_-'; "
             f"K a version number), e.g. slide-gym/square-expert-v0; got {dataset_id!r}"
         )
     return dataset_id
@@ -47,6 +50,11 @@ class CollectConfig:
         time_budget: the expert's planning seconds per episode.
         seed: the first reset seed; episode i of the collection is reset with ``seed + i``.
         only_success: keep only the episodes the expert solved (then more seeds are run).
+        action_noise: DART (Laskey et al. 2017): the standard deviation of seeded Gaussian
+            noise added to the expert's arm actions before they are executed (action units;
+            the hand command is left alone). The dataset's ``actions`` are the executed ones
+            (an exact replay needs them) and ``infos["expert_action"]`` the expert's clean
+            ones, the labels a learner trains on. 0: no noise, no labels.
     """
 
     env_id: str
@@ -60,6 +68,7 @@ class CollectConfig:
     time_budget: float = 10.0
     seed: int = 0
     only_success: bool = False
+    action_noise: float = 0.0
 
     def __post_init__(self) -> None:
         if self.env_id not in DICT_ENV_IDS:
@@ -74,6 +83,15 @@ class CollectConfig:
         if self.control_mode not in CONTROL_MODES:
             raise ValueError(f"control_mode must be one of {', '.join(CONTROL_MODES)}")
         check_time_budget(self.time_budget)
+        if not (
+            isinstance(self.action_noise, (int, float))
+            and math.isfinite(self.action_noise)
+            and 0 <= self.action_noise <= MAX_ACTION_NOISE
+        ):
+            raise ValueError(
+                f"action_noise must be a number in [0, {MAX_ACTION_NOISE}] (the standard "
+                f"deviation in action units, which span [-1, 1]), got {self.action_noise!r}"
+            )
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise ValueError(f"seed must be a non-negative integer, got {self.seed!r}")
         if not (isinstance(self.scale, (int, float)) and math.isfinite(self.scale)):

@@ -126,8 +126,32 @@ def reset_options(env: gym.Env, config: CollectConfig) -> dict[str, Any]:
     return options
 
 
+LABEL_KEY = "expert_action"
+"""Step info of a DART collection: the expert's clean action of the step (zeros at reset)."""
+DART_STREAM = 0xDA27
+"""Mixed with the episode's seed into the seed of its DART noise."""
+
+
+def dart_noise(sigma: float, seed: int, labels: list[np.ndarray]) -> Any:
+    """``perturb(action)`` for :func:`agents.episode.play_episode`: keeps the clean action
+    in ``labels`` and returns it with seeded Gaussian noise (standard deviation ``sigma``) on
+    every entry but the last (the hand command), clipped to [-1, 1]."""
+    rng = np.random.default_rng([int(seed), DART_STREAM])
+
+    def perturb(action: np.ndarray) -> np.ndarray:
+        clean = np.asarray(action, dtype=np.float32).reshape(-1)
+        labels.append(clean.copy())
+        noisy = clean.copy()
+        noisy[:-1] += rng.normal(0.0, sigma, size=len(clean) - 1).astype(np.float32)
+        return np.clip(noisy, -1.0, 1.0)
+
+    return perturb
+
+
 def record_episode(config: CollectConfig, seed: int) -> RecordedEpisode:
-    """Run the expert of ``config`` for the episode of reset seed ``seed`` and record it."""
+    """Run the expert of ``config`` for the episode of reset seed ``seed`` and record it
+    (with ``config.action_noise``: DART, the executed actions noisy and the expert's clean
+    ones in ``infos["expert_action"]``)."""
     from agents.episode import play_episode
     from agents.planner_agent import PlannerAgent
 
@@ -136,6 +160,9 @@ def record_episode(config: CollectConfig, seed: int) -> RecordedEpisode:
     observations: list[dict[str, np.ndarray]] = []
     infos: list[dict[str, Any]] = []
     steps: list[tuple[np.ndarray, float, bool, bool]] = []
+    labels: list[np.ndarray] = []
+    noise = config.action_noise
+    perturb = dart_noise(noise, seed, labels) if noise > 0 else None
 
     def on_reset(obs: dict[str, np.ndarray], info: dict[str, Any]) -> None:
         observations.append(obs)
@@ -160,21 +187,31 @@ def record_episode(config: CollectConfig, seed: int) -> RecordedEpisode:
         )
         try:
             record = play_episode(
-                env, agent, seed=seed, options=options, on_reset=on_reset, on_step=on_step
+                env,
+                agent,
+                seed=seed,
+                options=options,
+                on_reset=on_reset,
+                on_step=on_step,
+                perturb=perturb,
             )
         finally:
             agent.close()
     finally:
         env.close()
+    actions = np.stack([s[0] for s in steps])
+    stacked = _stack_infos(infos)
+    if perturb is not None:
+        stacked[LABEL_KEY] = np.concatenate([np.zeros_like(actions[:1]), np.stack(labels)])
     return RecordedEpisode(
         seed=int(seed),
         options=options,
         observations={k: np.stack([o[k] for o in observations]) for k in observations[0]},
-        actions=np.stack([s[0] for s in steps]),
+        actions=actions,
         rewards=np.array([s[1] for s in steps], dtype=np.float64),
         terminations=np.array([s[2] for s in steps], dtype=bool),
         truncations=np.array([s[3] for s in steps], dtype=bool),
-        infos=_stack_infos(infos),
+        infos=stacked,
         record=record.to_json_dict(),
     )
 

@@ -13,12 +13,13 @@ import json
 import shutil
 import warnings
 from collections.abc import Iterable, Iterator
+from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
-from slide_gym.datasets.config import check_dataset_id
+from slide_gym.datasets.config import DATASET_ID, check_dataset_id
 from slide_gym.datasets.recording import RecordedEpisode
 from slide_gym.planning.result import json_values
 
@@ -28,12 +29,38 @@ METADATA_KEY = "slide_gym"
 """The dataset metadata entry holding the collection's configuration and figures."""
 
 
+def local_dataset_ids() -> list[str]:
+    """The ids of the Minari datasets on this machine (``MINARI_DATASETS_PATH``).
+
+    ``minari.list_local_datasets`` ends in a traceback as soon as any folder under the
+    datasets root has a ``data`` folder and a name Minari cannot parse (a LeRobot export
+    written there, a partial folder a failed create left behind); such folders are skipped
+    here, as are folders whose metadata names another id."""
+    import minari
+
+    root = Path(minari.storage.get_dataset_path())
+    ids = []
+    for meta in root.glob("**/data/metadata.json"):
+        rel = meta.parent.parent.relative_to(root)
+        if any(part.startswith(".") for part in rel.parts):
+            continue
+        dataset_id = rel.as_posix()
+        if not DATASET_ID.match(dataset_id):
+            continue
+        try:
+            if json.loads(meta.read_text()).get("dataset_id") == dataset_id:
+                ids.append(dataset_id)
+        except (OSError, ValueError):
+            continue
+    return sorted(ids)
+
+
 def load(dataset_id: str) -> Any:
     """``minari.load_dataset(dataset_id)``, with a ValueError naming the local datasets."""
     import minari
 
     check_dataset_id(dataset_id)
-    local = sorted(minari.list_local_datasets())
+    local = local_dataset_ids()
     if dataset_id not in local:
         raise ValueError(
             f"no local dataset {dataset_id!r}; local datasets: {', '.join(local) or 'none'} "

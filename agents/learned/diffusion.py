@@ -1,0 +1,179 @@
+"""Denoising diffusion over action chunks: the noise schedule, the training loss, few-step
+DDIM sampling, and an exponential moving average of the weights.
+
+:class:`DiffusionModel` owns everything a saved policy needs besides its weights' history:
+the U-Net, the dataset's normalisation statistics (observations standardised, actions
+scaled to [-1, 1]) and the schedule, all as buffers, so ``state_dict`` is the whole model.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import asdict, dataclass
+
+import torch
+from torch import nn
+
+from agents.learned.unet import ConditionalUnet1D
+
+OBS_CLIP = 10.0
+"""Standardised observation entries are clipped to +-this."""
+
+
+@dataclass(frozen=True)
+class DiffusionConfig:
+    """The policy's shape and its diffusion process.
+
+    Args:
+        obs_horizon: observations the policy conditions on (the latest and those before).
+        pred_horizon: actions each sample predicts (a chunk, starting at the oldest
+            observation's step).
+        action_horizon: actions of a chunk executed before sampling again (receding horizon).
+        channels, step_embed_dim: the U-Net (:class:`ConditionalUnet1D`).
+        train_steps: DDPM diffusion steps (squared-cosine schedule).
+        inference_steps: DDIM steps when acting.
+        with_features: add :func:`agents.learned.features.task_features` to the inputs.
+    """
+
+    obs_horizon: int = 2
+    pred_horizon: int = 16
+    action_horizon: int = 8
+    channels: tuple[int, ...] = (64, 128, 256)
+    step_embed_dim: int = 64
+    train_steps: int = 100
+    inference_steps: int = 10
+    with_features: bool = True
+
+    def __post_init__(self) -> None:
+        for name in ("obs_horizon", "pred_horizon", "action_horizon", "train_steps"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ValueError(f"{name} must be a positive integer, got {value!r}")
+        if self.obs_horizon - 1 + self.action_horizon > self.pred_horizon:
+            raise ValueError(
+                f"obs_horizon - 1 + action_horizon ({self.obs_horizon - 1 + self.action_horizon})"
+                f" must not exceed pred_horizon ({self.pred_horizon})"
+            )
+        if self.pred_horizon % 2 ** (len(self.channels) - 1):
+            raise ValueError(
+                f"pred_horizon ({self.pred_horizon}) must be divisible by "
+                f"2 ** (levels - 1) = {2 ** (len(self.channels) - 1)} for channels "
+                f"{list(self.channels)}"
+            )
+        if not 1 <= self.inference_steps <= self.train_steps:
+            raise ValueError(
+                f"inference_steps must be in 1..train_steps ({self.train_steps}), "
+                f"got {self.inference_steps!r}"
+            )
+        object.__setattr__(self, "channels", tuple(int(c) for c in self.channels))
+
+    def to_json(self) -> dict:
+        return {**asdict(self), "channels": list(self.channels)}
+
+
+def squared_cosine_alpha_bar(steps: int, s: float = 0.008) -> torch.Tensor:
+    """Cumulative signal fractions of the squared-cosine schedule (Nichol & Dhariwal 2021),
+    with each step's beta capped at 0.999."""
+    f = [math.cos((t / steps + s) / (1 + s) * math.pi / 2) ** 2 for t in range(steps + 1)]
+    betas = torch.tensor([min(1 - f[t + 1] / f[t], 0.999) for t in range(steps)])
+    return torch.cumprod(1.0 - betas, dim=0)
+
+
+class DiffusionModel(nn.Module):
+    """The U-Net, the normalisation statistics and the schedule of one policy."""
+
+    def __init__(self, config: DiffusionConfig, input_dim: int, action_dim: int) -> None:
+        super().__init__()
+        self.config, self.input_dim, self.action_dim = config, int(input_dim), int(action_dim)
+        self.net = ConditionalUnet1D(
+            action_dim, config.obs_horizon * input_dim, config.channels, config.step_embed_dim
+        )
+        self.register_buffer("obs_mean", torch.zeros(input_dim))
+        self.register_buffer("obs_std", torch.ones(input_dim))
+        self.register_buffer("action_center", torch.zeros(action_dim))
+        self.register_buffer("action_half_range", torch.ones(action_dim))
+        self.register_buffer("alpha_bar", squared_cosine_alpha_bar(config.train_steps))
+
+    def set_stats(
+        self, obs_mean: torch.Tensor, obs_std: torch.Tensor, low: torch.Tensor, high: torch.Tensor
+    ) -> None:
+        """Standardise inputs with ``obs_mean``/``obs_std``; map actions in [low, high] to
+        [-1, 1] (an action entry with no range keeps a half range of 1)."""
+        self.obs_mean.copy_(obs_mean)
+        self.obs_std.copy_(obs_std)
+        half = (high - low) / 2
+        self.action_center.copy_((high + low) / 2)
+        self.action_half_range.copy_(torch.where(half < 1e-6, torch.ones_like(half), half))
+
+    def normalize_obs(self, x: torch.Tensor) -> torch.Tensor:
+        return torch.clamp((x - self.obs_mean) / self.obs_std, -OBS_CLIP, OBS_CLIP)
+
+    def normalize_action(self, a: torch.Tensor) -> torch.Tensor:
+        return (a - self.action_center) / self.action_half_range
+
+    def unnormalize_action(self, a: torch.Tensor) -> torch.Tensor:
+        return a * self.action_half_range + self.action_center
+
+    def loss(
+        self, obs: torch.Tensor, actions: torch.Tensor, generator: torch.Generator | None = None
+    ) -> torch.Tensor:
+        """Mean squared error of the predicted noise (DDPM's simple loss). ``obs``:
+        (B, obs_horizon, input_dim) raw inputs; ``actions``: (B, pred_horizon, action_dim)
+        raw actions."""
+        x0 = self.normalize_action(actions)
+        cond = self.normalize_obs(obs).flatten(1)
+        noise = torch.randn(x0.shape, generator=generator)
+        t = torch.randint(0, self.config.train_steps, (len(x0),), generator=generator)
+        ab = self.alpha_bar[t].view(-1, 1, 1)
+        noisy = ab.sqrt() * x0 + (1 - ab).sqrt() * noise
+        return nn.functional.mse_loss(self.net(noisy, t, cond), noise)
+
+    @torch.no_grad()
+    def sample(
+        self, obs: torch.Tensor, generator: torch.Generator | None = None, steps: int | None = None
+    ) -> torch.Tensor:
+        """(B, pred_horizon, action_dim) raw actions for ``obs`` (B, obs_horizon, input_dim),
+        by deterministic DDIM (eta 0) over ``steps`` (default ``config.inference_steps``)
+        evenly spaced diffusion steps; the clean estimate is clipped to [-1, 1] each step."""
+        steps = self.config.inference_steps if steps is None else int(steps)
+        cond = self.normalize_obs(obs).flatten(1)
+        n = len(cond)
+        x = torch.randn((n, self.config.pred_horizon, self.action_dim), generator=generator)
+        total = self.config.train_steps
+        times = torch.linspace(total - 1, 0, steps).round().long().tolist()
+        for i, t in enumerate(times):
+            ab = self.alpha_bar[t]
+            eps = self.net(x, torch.full((n,), t, dtype=torch.long), cond)
+            x0 = ((x - (1 - ab).sqrt() * eps) / ab.sqrt()).clamp(-1.0, 1.0)
+            eps = (x - ab.sqrt() * x0) / (1 - ab).sqrt()
+            ab_prev = self.alpha_bar[times[i + 1]] if i + 1 < len(times) else torch.tensor(1.0)
+            x = ab_prev.sqrt() * x0 + (1 - ab_prev).sqrt() * eps
+        return self.unnormalize_action(x)
+
+
+class EMA:
+    """Exponential moving average of a model's weights, with the warm-up of Chi et al.:
+    decay ``min(max_decay, 1 - (1 + step) ** -power)``, so early weights are forgotten fast."""
+
+    def __init__(self, model: nn.Module, power: float = 0.75, max_decay: float = 0.9999) -> None:
+        self.model = copy.deepcopy(model).eval()
+        for p in self.model.parameters():
+            p.requires_grad_(False)
+        self.power, self.max_decay, self.step = power, max_decay, 0
+
+    @torch.no_grad()
+    def update(self, model: nn.Module) -> None:
+        decay = min(self.max_decay, 1 - (1 + self.step) ** -self.power)
+        for mine, theirs in zip(self.model.parameters(), model.parameters(), strict=True):
+            mine.mul_(decay).add_(theirs.detach(), alpha=1 - decay)
+        for mine, theirs in zip(self.model.buffers(), model.buffers(), strict=True):
+            mine.copy_(theirs)
+        self.step += 1
+
+    def state_dict(self) -> dict:
+        return {"model": self.model.state_dict(), "step": self.step}
+
+    def load_state_dict(self, state: dict) -> None:
+        self.model.load_state_dict(state["model"])
+        self.step = int(state["step"])

@@ -1,0 +1,245 @@
+"""The diffusion policy (agents.learned): features, DART data, training, resume, saving and
+acting in single and vectorised envs, and the CLI's errors. Tiny sizes: nothing here says
+how well a policy does (benchmarks/learning.py measures that)."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import gymnasium as gym  # noqa: E402
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+import torch  # noqa: E402
+
+import slide_gym  # noqa: E402,F401 - registers the environments
+from agents.learned.data import ChunkSampler, load_demonstrations  # noqa: E402
+from agents.learned.diffusion import DiffusionConfig  # noqa: E402
+from agents.learned.features import task_features  # noqa: E402
+from agents.learned.policy import DiffusionPolicy  # noqa: E402
+from agents.learned.train import TrainConfig, read_progress, train_diffusion  # noqa: E402
+from slide_gym.cli import main  # noqa: E402
+from slide_gym.datasets.recording import LABEL_KEY  # noqa: E402
+from slide_gym.datasets.store import load, read_episodes  # noqa: E402
+
+torch.set_num_threads(1)
+
+ENV_ID = "SlideGym/TopSlide-v0"
+DATASET = "test/dart-slide-v0"
+NOISE = 0.05
+TINY = DiffusionConfig(channels=(16, 32), step_embed_dim=16, train_steps=20, inference_steps=4)
+
+
+@pytest.fixture(scope="module")
+def minari_root(tmp_path_factory):
+    """A private Minari folder for this module (Minari reads the variable on every call)."""
+    root = tmp_path_factory.mktemp("minari")
+    old = os.environ.get("MINARI_DATASETS_PATH")
+    os.environ["MINARI_DATASETS_PATH"] = str(root)
+    yield root
+    if old is None:
+        del os.environ["MINARI_DATASETS_PATH"]
+    else:
+        os.environ["MINARI_DATASETS_PATH"] = old
+
+
+@pytest.fixture(scope="module")
+def dart(minari_root):
+    """2 expert slide episodes with DART noise (seeds 3, 4)."""
+    args = ["collect", "--env", ENV_ID, "--episodes", "2", "--seed", "3", "--workers", "1"]
+    args += ["--time-budget", "60", "--action-noise", str(NOISE), "--dataset-id", DATASET]
+    assert main(args) == 0
+    return load(DATASET)
+
+
+def _config(iterations: int, log_every: int = 10) -> TrainConfig:
+    return TrainConfig(
+        iterations=iterations,
+        batch_size=32,
+        learning_rate=3e-3,
+        warmup=5,
+        log_every=log_every,
+        val_episodes=0,
+    )
+
+
+def _train(dataset, out, iterations, log_every=10, resume=False):
+    return train_diffusion(
+        dataset,
+        out,
+        config=TINY,
+        train=_config(iterations, log_every),
+        env_id=ENV_ID,
+        env_kwargs={"object": "square", "table": "square"},
+        resume=resume,
+        progress=False,
+    )
+
+
+@pytest.fixture(scope="module")
+def trained(dart, tmp_path_factory):
+    out = tmp_path_factory.mktemp("dp") / "run"
+    _train(dart, out, 200, log_every=40)
+    return out
+
+
+def test_dart_labels_are_the_experts_clean_actions(dart):
+    """The executed actions are noisy; the labels are what a fresh expert with the same seed
+    answers to the same observations (it reads nothing else), and the noise is seeded."""
+    from agents.planner_agent import PlannerAgent
+
+    for ep in read_episodes(dart):
+        labels = ep.infos[LABEL_KEY][1:]
+        executed = ep.actions
+        assert labels.shape == executed.shape
+        arm = np.abs(labels[:, :7] - executed[:, :7])
+        assert arm.mean() > NOISE / 4  # the noise moved the executed arm actions ...
+        np.testing.assert_array_equal(labels[:, 7], executed[:, 7])  # ... not the hand
+        agent = PlannerAgent("regions", 60.0, seed=ep.seed)
+        try:
+            for t in range(len(labels)):
+                obs = {k: v[t] for k, v in ep.observations.items()}
+                action, _ = agent.predict(obs, episode_start=np.array([t == 0]))
+                np.testing.assert_array_equal(action, labels[t])
+        finally:
+            agent.close()
+
+
+def test_features_read_the_envs_overhang(dart):
+    ep = next(read_episodes(dart))
+    feats = task_features(ep.observations)
+    np.testing.assert_allclose(feats[:, -1], ep.infos["overhang_m"], atol=1e-4)  # 0.1 mm
+    assert np.all(feats[:, 5] > 0)  # the plate's centroid stays on the table
+    np.testing.assert_allclose(np.linalg.norm(feats[:, 6:8], axis=1), 1.0, atol=1e-6)
+
+
+def test_windows_clamp_at_the_start_and_pad_at_the_end(dart):
+    demos = load_demonstrations(dart, with_features=False)
+    assert demos.episodes == 2 and np.array_equal(
+        demos.labels[: demos.lengths[0]], dart[0].infos[LABEL_KEY][1:]
+    )
+    sampler = ChunkSampler(demos, obs_horizon=2, pred_horizon=16)
+    assert len(sampler) == demos.frames
+    first_obs = sampler.inputs[sampler.obs_rows[0]]
+    np.testing.assert_array_equal(first_obs[0], first_obs[1])  # the first input repeats
+    last = demos.lengths[0] - 1
+    tail = sampler.actions[sampler.act_rows[last]]
+    assert np.all(tail[2:, :7] == 0)  # past the end: the arm holds still ...
+    assert np.all(tail[2:, 7] == demos.labels[last, 7])  # ... and the hand keeps its command
+
+
+def test_training_lowers_the_loss_and_writes_its_files(trained):
+    rows = read_progress(trained / "progress.csv")
+    assert [int(r["iteration"]) for r in rows] == [40, 80, 120, 160, 200]
+    assert float(rows[-1]["loss"]) < 0.8 * float(rows[0]["loss"])
+    for name in ("checkpoint.pt", "policy.pt", "policy.json", "learning_curve.png"):
+        assert (trained / name).is_file()
+    card = json.loads((trained / "policy.json").read_text())
+    assert card["env_id"] == ENV_ID and card["demonstrations"]["episodes"] == 2
+    assert card["checkpoint"]["iteration"] == 200
+
+
+def test_interrupted_training_resumes_bit_for_bit(dart, tmp_path, monkeypatch):
+    straight = tmp_path / "straight"
+    _train(dart, straight, 40)
+    stopped = tmp_path / "stopped"
+    calls = {"n": 0}
+    real = torch.optim.AdamW.step
+
+    def stop_at_25(self, *args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] == 25:
+            os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C in the middle of iteration 25
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(torch.optim.AdamW, "step", stop_at_25)
+    with pytest.raises(KeyboardInterrupt):
+        _train(dart, stopped, 40)
+    monkeypatch.setattr(torch.optim.AdamW, "step", real)
+    with pytest.raises(ValueError, match="--resume"):
+        _train(dart, stopped, 40)  # a run folder is never overwritten by accident
+    blob = torch.load(stopped / "checkpoint.pt", weights_only=False)
+    assert blob["iteration"] == 25
+    _train(dart, stopped, 40, resume=True)
+    a = torch.load(straight / "checkpoint.pt", weights_only=False)
+    b = torch.load(stopped / "checkpoint.pt", weights_only=False)
+    for key in a["ema"]["model"]:
+        torch.testing.assert_close(a["ema"]["model"][key], b["ema"]["model"][key])
+    rows = read_progress(stopped / "progress.csv")
+    assert [int(r["iteration"]) for r in rows] == [10, 20, 30, 40]
+
+
+def test_policy_predicts_single_batched_and_deterministically(trained):
+    env = gym.make(ENV_ID)
+    obs, _ = env.reset(seed=0)
+    env.close()
+    policy = DiffusionPolicy.load(trained, seed=1)
+    action, state = policy.predict(obs, episode_start=np.array([True]))
+    assert action.shape == (8,) and action.dtype == np.float32 and state is None
+    assert np.all(np.abs(action) <= 1)
+    batch = {k: np.stack([v] * 3) for k, v in obs.items()}
+    actions, _ = DiffusionPolicy.load(trained, seed=1).predict(batch, episode_start=np.ones(3))
+    assert actions.shape == (3, 8)
+    again, _ = DiffusionPolicy.load(trained, seed=1).predict(obs, episode_start=np.array([True]))
+    np.testing.assert_array_equal(action, again)
+
+
+def test_action_queue_runs_eight_steps_and_resets_at_episode_start(trained, monkeypatch):
+    env = gym.make(ENV_ID)
+    obs, _ = env.reset(seed=0)
+    env.close()
+    policy = DiffusionPolicy.load(trained)
+    calls = []
+    real = policy.model.sample
+    monkeypatch.setattr(policy.model, "sample", lambda *a: calls.append(1) or real(*a))
+    policy.predict(obs, episode_start=np.array([True]))
+    for _ in range(7):
+        policy.predict(obs, episode_start=np.array([False]))
+    assert len(calls) == 1  # one chunk, 8 actions executed
+    policy.predict(obs, episode_start=np.array([False]))
+    assert len(calls) == 2  # the queue ran dry
+    policy.predict(obs, episode_start=np.array([True]))
+    assert len(calls) == 3  # a new episode drops what was queued
+
+
+def test_runs_under_sb3_evaluate_policy_on_a_vectorised_env(trained):
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.evaluation import evaluate_policy
+
+    venv = make_vec_env(ENV_ID, n_envs=2, env_kwargs={"max_episode_steps": 12})
+    try:
+        rewards, lengths = evaluate_policy(
+            DiffusionPolicy.load(trained), venv, n_eval_episodes=2, return_episode_rewards=True
+        )
+    finally:
+        venv.close()
+    assert len(rewards) == 2 and all(n <= 12 for n in lengths)
+
+
+def test_evaluate_command_runs_a_policy_folder(trained, capsys):
+    args = ["evaluate", str(trained), "--env", ENV_ID, "--episodes", "1", "--json"]
+    assert main([*args]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["episodes"] == 1 and result["env_kwargs"]["object"] == "square"
+
+
+@pytest.mark.parametrize(
+    ("args", "needle"),
+    [
+        (["train-dp", "nobody/nothing-v0", "--out", "dp"], "no local dataset"),
+        (["evaluate", "{empty}", "--episodes", "1"], "without a saved policy"),
+        (
+            ["collect", "--episodes", "1", "--action-noise", "-1", "--dataset-id", "t/x-v0"],
+            "action_noise",
+        ),
+        (["collect", "--episodes", "1", "--dataset-id", "t/x.y-v0"], "NAMESPACE/NAME-vK"),
+    ],
+)
+def test_bad_input_is_one_line_and_exit_2(minari_root, tmp_path, args, needle, capsys):
+    args = [a.replace("{empty}", str(tmp_path)) for a in args]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert needle in err and len(err.strip().splitlines()) == 1

@@ -16,6 +16,12 @@ stand-off outside the table edge), ``approach_grasp``, ``close``, ``lift``. A pl
 ungraspable is re-planned from where it lies, within the total planning budget. While the
 fingertip is pressed, :class:`~agents.tracking.ContactTracker` corrects the planned targets.
 
+The expert takes over from any state, not only from an episode's start (what DAgger needs
+of it): from its first observation it reads where things are. A plate in the closed hand is
+lifted and held; a fingertip pressed on the plate first rises off it (``release``); a plate
+already graspable gets its grasp at once; a plate partly over the edge is planned from where
+it lies (as a replan is); anything else is planned as at the start.
+
 Same seed, same episode, on any machine: every planning step is capped by a count
 (``ExpertParams.strict_plan_iterations``, ``grasp_iterations``, ``route_iterations``); the
 planning budget only decides when the expert gives up (``failure`` says so).
@@ -58,6 +64,12 @@ from slide_gym.planning.result import PlanStatus
 from slide_gym.robot.kinematics import FastChain, fingertip_chain, grasp_chain
 from slide_gym.robot.model import ARM_LOWER, ARM_UPPER
 
+TOUCH_HEIGHT = 0.01
+"""m: a fingertip this close above the plate's top face, over the plate, is taken to press
+it when the expert takes over (it rises before anything is planned)."""
+HELD_HEIGHT = 0.01
+"""m: a plate whose bottom is this far above the table top, with the hand closed, is in the
+hand when the expert takes over (it lifts and holds)."""
 APPROACH_RAISES = (0.15, 0.25, 0.35)
 """m above the pre-press pose: the approach goes via a pose raised by the first of these whose
 route is free (when the direct move is not), before a planned route is tried."""
@@ -115,6 +127,7 @@ class SlideGraspExpert:
         self.rng = np.random.default_rng(self.seed)
         self.centroid_margin = slide_params.centroid_margin  # set per plate by _slide_params
         self._steps = 0  # actions returned so far
+        self._taken_over = False  # the first observation's state has been read
         self.report = ExpertReport()
 
     # ------------------------------------------------------------------ act
@@ -163,7 +176,13 @@ class SlideGraspExpert:
     def _advance(self, obs: dict[str, np.ndarray]) -> None:
         """Queue the next stage's targets (called when the queue runs dry)."""
         if self.phase == "plan":
+            if not self._taken_over:
+                self._taken_over = True
+                if self._take_over(obs):
+                    return None
             self._plan(obs)
+        elif self.phase == "release":  # read the state again, the fingertip now up
+            self.phase, self._taken_over = "plan", False
         elif self.phase == "slide":
             self._pull_back_or_lift_off(obs)
         elif self.phase == "pull_back":
@@ -199,10 +218,76 @@ class SlideGraspExpert:
         """Planning seconds left in the episode's budget (a give-up deadline, nothing more)."""
         return self.time_budget - (self.report.planning_time_s or 0.0)
 
+    def _take_over(self, obs: dict[str, np.ndarray]) -> bool:
+        """Read the first observation's state (see the module docstring); True if it queued
+        (or decided) what comes first, False if planning as at the start is right."""
+        assert self.obj is not None and self.table is not None and self.q_cmd is not None
+        p = self.params
+        plate_z = float(obs["object_pose"][2]) - float(obs["table_height"][0])
+        if plate_z > HELD_HEIGHT and float(obs["hand_command"][0]) > 0.5:
+            self.report.events.append(f"took over with the plate in the hand ({plate_z:.3f} m up)")
+            lift_path = rise(
+                self.hand, self.q_cmd, (p.lift, 0.75 * p.lift, 0.5 * p.lift), True, self.rng
+            )
+            if lift_path is None:
+                self._fail("no IK solution for lifting the grasped object")
+                return True
+            self._push(
+                Segment("lift", lift_path, 1.0, p.lift_speed, hand=1.0, hold_s=1.0), self.hand
+            )
+            return True
+        pose = self._object_pose(obs)
+        placed = transform_polygon(self.obj.polygon, *pose)
+        tip = np.asarray(obs["fingertip_pose"][:3], dtype=float)
+        top = float(obs["table_height"][0]) + self.obj.thickness
+        over = placed.buffer(0.01).contains(shapely.Point(tip[0], tip[1]))
+        if over and tip[2] - top < TOUCH_HEIGHT:
+            h = p.lift_off_height
+            line = rise(self.tip, self.q_cmd, (h, h / 2, h / 4), True, self.rng)
+            if line is None:
+                self._fail("no IK solution to lift the fingertip off the plate")
+                return True
+            self.report.events.append("took over with the fingertip on the plate: released it")
+            self._push(Segment("release", line, 1.0, p.lift_off_speed), self.tip)
+            return True
+        if overhang(placed, self.table.polygon).graspable(p.grasp_u_star):
+            self.report.events.append("took over with the plate graspable: grasping it")
+            return self._grasp_as_it_lies(pose)
+        return False
+
+    def _grasp_as_it_lies(self, pose: np.ndarray) -> bool:
+        """Re-aim a grasp at a graspable plate that nothing planned; False (plan instead) if
+        no grasp is found."""
+        assert self.obj is not None and self.table is not None and self.q_cmd is not None
+        try:
+            problem = TopSlideProblem(
+                self.obj, self.table, pose, self._slide_params()[0][1], allow_overhang=True
+            )
+        except ValueError as exc:
+            self.report.events.append(f"no grasp from here ({exc}): planning a slide")
+            return False
+        rng = np.random.default_rng(np.random.SeedSequence([self.seed, 7]))
+        self.planner = TopSlidePlanner(problem, self.planner_name, rng)
+        t0 = time.perf_counter()
+        ok, info = self.planner.reaim_grasp(
+            pose,
+            self.q_cmd,
+            self.params.grasp_u_star,
+            max_iterations=self.params.grasp_iterations,
+            time_budget=max(self._budget_left(), 1e-3),
+        )
+        self.report.planning_time_s += time.perf_counter() - t0
+        if not ok:
+            self.report.events.append(f"no grasp from here ({info.get('reason')}): planning")
+            return False
+        self._queue_grasp(np.asarray(info["transfer_path"]))
+        return True
+
     def _plan(self, obs: dict[str, np.ndarray]) -> None:
         assert self.obj is not None and self.table is not None and self.q_cmd is not None
         pose = self._object_pose(obs)
-        replan = self.report.replans > 0
+        placed = transform_polygon(self.obj.polygon, *pose)
+        replan = self.report.replans > 0 or overhang(placed, self.table.polygon).u > 0
         attempts = self._slide_params()
         for k, (name, params) in enumerate(attempts):
             budget = self._budget_left()

@@ -74,6 +74,7 @@ def _train(dataset, out, iterations, log_every=10, resume=False):
         train=_config(iterations, log_every),
         env_id=ENV_ID,
         env_kwargs={"object": "square", "table": "square"},
+        card={"dataset_id": DATASET},
         resume=resume,
         progress=False,
     )
@@ -226,6 +227,31 @@ def test_evaluate_command_runs_a_policy_folder(trained, capsys):
     assert result["episodes"] == 1 and result["env_kwargs"]["object"] == "square"
 
 
+def test_one_dagger_round_adds_labelled_steps(dart, trained, tmp_path):
+    from agents.learned.dagger import DAGGER_SEED, DaggerConfig, run_dagger
+
+    config = DaggerConfig(rounds=1, episodes=1, iterations=20, max_steps=24, label_budget=60.0)
+    summary = run_dagger(trained, tmp_path / "dagger", "test/dagger-v0", config, workers=1)
+    (row,) = summary["rounds"]
+    assert row["round"] == 1 and row["episodes"] == 1 and row["labelled_steps"] == 24
+    assert row["label_queries"] == 3  # a fresh expert at steps 0, 8 and 16
+    assert row["dataset_episodes"] == 3  # the 2 demonstrations and the learner's episode
+    aggregate = load("test/dagger-v0")
+    eps = list(read_episodes(aggregate))
+    assert [e.record.get("dagger_round", 0) for e in eps] == [0, 0, 1]
+    metas = list(aggregate.storage.get_episode_metadata([0, 1, 2]))
+    assert [int(m["dagger_round"]) for m in metas] == [0, 0, 1]
+    rollout = eps[2]
+    assert rollout.seed == DAGGER_SEED and len(rollout.actions) == 24
+    labels = rollout.infos[LABEL_KEY][1:]
+    assert np.isfinite(labels).all()  # every query planned
+    assert not np.array_equal(labels, rollout.actions)  # the learner acted, the expert labelled
+    assert (tmp_path / "dagger" / "round-1" / "policy" / "policy.pt").is_file()
+    # the same command again resumes: nothing left to run, same figures
+    again = run_dagger(trained, tmp_path / "dagger", "test/dagger-v0", config, workers=1)
+    assert again["rounds"][0]["labelled_steps"] == 24
+
+
 @pytest.mark.parametrize(
     ("args", "needle"),
     [
@@ -236,6 +262,21 @@ def test_evaluate_command_runs_a_policy_folder(trained, capsys):
             "action_noise",
         ),
         (["collect", "--episodes", "1", "--dataset-id", "t/x.y-v0"], "NAMESPACE/NAME-vK"),
+        (["dagger", "--policy", "{empty}", "--out", "d", "--dataset-id", "tt/d-v0"], "policy.pt"),
+        (
+            [
+                "dagger",
+                "--policy",
+                "{empty}",
+                "--rounds",
+                "0",
+                "--out",
+                "d",
+                "--dataset-id",
+                "tt/d-v0",
+            ],
+            "--rounds",
+        ),
     ],
 )
 def test_bad_input_is_one_line_and_exit_2(minari_root, tmp_path, args, needle, capsys):

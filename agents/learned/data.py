@@ -53,9 +53,10 @@ class Demonstrations:
         return mean.astype(np.float32), std.astype(np.float32)
 
     def label_range(self) -> tuple[np.ndarray, np.ndarray]:
-        """Per-entry minimum and maximum of the labels, zero included (the end padding)."""
-        low = np.minimum(self.labels.min(axis=0), 0.0)
-        high = np.maximum(self.labels.max(axis=0), 0.0)
+        """Per-entry minimum and maximum of the labels, zero included (the end padding);
+        dropped labels (NaN) are left out."""
+        low = np.minimum(np.nanmin(self.labels, axis=0), 0.0)
+        high = np.maximum(np.nanmax(self.labels, axis=0), 0.0)
         return low.astype(np.float32), high.astype(np.float32)
 
 
@@ -73,14 +74,16 @@ def episode_labels(episode: Any) -> np.ndarray:
 def load_demonstrations(
     dataset: Any, *, with_features: bool = True, only_success: bool = True
 ) -> Demonstrations:
-    """The episodes of Minari ``dataset`` (those whose ``success`` flag is set, unless
-    ``only_success`` is False) as :class:`Demonstrations`. ValueError if none is left."""
+    """The episodes of Minari ``dataset`` as :class:`Demonstrations`: those whose ``success``
+    flag is set (all, if ``only_success`` is False), and every DAgger rollout (whatever the
+    learner did, its labels are the expert's). ValueError if none is left."""
     episode_ids = list(range(dataset.total_episodes))
     metas = list(dataset.storage.get_episode_metadata(episode_ids))
     inputs, labels, lengths, seeds = [], [], [], []
     skipped = 0
     for episode, meta in zip(dataset.iterate_episodes(episode_ids), metas, strict=True):
-        if only_success and not bool(meta.get("success", True)):
+        labelled_rollout = int(meta.get("dagger_round", 0)) > 0  # its labels are the expert's
+        if only_success and not labelled_rollout and not bool(meta.get("success", True)):
             skipped += 1
             continue
         n = len(episode.actions)
@@ -116,6 +119,7 @@ class ChunkSampler:
     Window ``t`` of an episode holds inputs ``t - obs_horizon + 1 .. t`` and actions
     ``t - obs_horizon + 1 .. t - obs_horizon + pred_horizon`` (clamped at the start, padded
     at the end), so the policy's chunk begins at its oldest observation, as in Chi et al.
+    Windows that hold a dropped (NaN) label are left out and counted in ``dropped``.
     """
 
     def __init__(self, demos: Demonstrations, obs_horizon: int, pred_horizon: int) -> None:
@@ -134,8 +138,11 @@ class ChunkSampler:
             offset += n + pred_horizon
         self.inputs = demos.inputs
         self.actions = np.concatenate(padded)
-        self.obs_rows = np.concatenate(obs_rows)
-        self.act_rows = np.concatenate(act_rows)
+        obs_idx, act_idx = np.concatenate(obs_rows), np.concatenate(act_rows)
+        # a window with a dropped label (a failed DAgger query) teaches nothing reliable
+        valid = ~np.isnan(self.actions[act_idx]).any(axis=(1, 2))
+        self.obs_rows, self.act_rows = obs_idx[valid], act_idx[valid]
+        self.dropped = int((~valid).sum())
 
     def __len__(self) -> int:
         return len(self.obs_rows)

@@ -113,12 +113,20 @@ def train_diffusion(
     card: dict[str, Any] | None = None,
     resume: bool = False,
     progress: bool = True,
+    init: Path | None = None,
 ) -> dict[str, Any]:
     """Train on Minari ``dataset`` into folder ``out`` (see the module docstring) and return
     the summary that ``policy.json`` also holds. ``env_id``/``env_kwargs``: the env the
     policy acts in (validation, and ``slide-gym evaluate DIR``); ``card``: extra entries
     for ``policy.json``. An ``out`` that already holds a checkpoint needs ``resume=True``
-    (with the same configuration)."""
+    (with the same configuration). ``init``: a ``policy.pt`` to start from (its weights,
+    configuration and normalisation statistics; DAgger's warm start)."""
+    init_model = None
+    if init is not None:
+        from agents.learned.policy import load_model
+
+        init_model = load_model(Path(init))
+        config = init_model.config
     config = config or DiffusionConfig()
     train = train or TrainConfig()
     out = Path(out)
@@ -133,7 +141,16 @@ def train_diffusion(
     sampler = ChunkSampler(demos, config.obs_horizon, config.pred_horizon)
     torch.manual_seed(train.seed)
     model = DiffusionModel(config, demos.inputs.shape[1], demos.labels.shape[1])
-    model.set_stats(*(torch.from_numpy(a) for a in (*demos.input_stats(), *demos.label_range())))
+    if init_model is not None:
+        if (init_model.input_dim, init_model.action_dim) != (model.input_dim, model.action_dim):
+            raise ValueError(
+                f"init {str(init)!r} has inputs/actions {init_model.input_dim}/"
+                f"{init_model.action_dim}, the dataset {model.input_dim}/{model.action_dim}"
+            )
+        model.load_state_dict(init_model.state_dict())
+    else:
+        stats = (*demos.input_stats(), *demos.label_range())
+        model.set_stats(*(torch.from_numpy(a) for a in stats))
     ema = EMA(model)
     optimizer = torch.optim.AdamW(
         model.parameters(), lr=train.learning_rate, weight_decay=train.weight_decay
@@ -170,6 +187,8 @@ def train_diffusion(
         "demonstrations": {
             "episodes": demos.episodes,
             "frames": demos.frames,
+            "windows": len(sampler),
+            "dropped_windows": sampler.dropped,
             "skipped_episodes": demos.skipped,
             "seeds": [min(demos.seeds), max(demos.seeds)],
         },

@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from slide_gym.cli.args import add_command
+from slide_gym.cli.args import add_backend, add_command
 
 
 def _cmd_train_dp(args: argparse.Namespace) -> int:
@@ -42,6 +42,42 @@ def _cmd_train_dp(args: argparse.Namespace) -> int:
         resume=args.resume,
     )
     print(json.dumps({"out": str(args.out), **summary}, indent=2))
+    return 0
+
+
+def _cmd_dagger(args: argparse.Namespace) -> int:
+    from agents.learned.dagger import DaggerConfig, run_dagger
+
+    config = DaggerConfig(
+        rounds=args.rounds,
+        episodes=args.episodes,
+        beta=args.beta,
+        decay=args.decay,
+        label_budget=args.label_budget,
+        iterations=args.iterations,
+        seed=args.seed,
+        max_steps=args.max_steps,
+    )
+    if args.env is not None:
+        from agents.learned.policy import CARD_FILE, is_policy_dir
+
+        if is_policy_dir(args.policy):
+            card = json.loads((args.policy / CARD_FILE).read_text())
+            if card.get("env_id") != args.env:
+                raise ValueError(
+                    f"--env {args.env} differs from the policy's env {card.get('env_id')}; "
+                    "DAgger runs the policy in the env it was trained for"
+                )
+    summary = run_dagger(
+        args.policy,
+        args.out,
+        args.dataset_id,
+        config,
+        workers=args.workers,
+        backend=args.backend,
+        address=args.ray_address,
+    )
+    print(json.dumps(summary, indent=2))
     return 0
 
 
@@ -89,3 +125,42 @@ def add_parsers(sub: Any) -> None:
     p.add_argument("--val-episodes", type=int, default=20, metavar="N", help="0: never validate")
     p.add_argument("--resume", action="store_true", help="continue the run in DIR")
     p.set_defaults(func=_cmd_train_dp)
+
+    p = add_command(
+        sub,
+        "dagger",
+        "DAgger: the learner acts, the replanning expert labels its states, retrain",
+        "Run R rounds of DAgger from a train-dp policy. Each round runs E learner episodes "
+        "(reset seeds from 40000); at every chunk boundary a fresh expert plans from the "
+        "state the learner reached and labels the chunk (a failed query is dropped and "
+        "counted), and it executes a decaying share of the chunks (--beta, --decay). The "
+        "episodes, with the labels in infos['expert_action'] and the round in their "
+        "metadata, join the policy's dataset in the Minari dataset --dataset-id, and the "
+        "policy is trained again from its last weights. OUT/round-R/policy is each round's "
+        "policy; OUT/dagger.json the figures. The same command again resumes.",
+        [
+            "slide-gym dagger --env SlideGym/TopSlide-v0 --policy models/dp-square --rounds 2 "
+            "--episodes 20 --out models/dagger --dataset-id slide-gym/square-slide-dagger-v0",
+        ],
+    )
+    p.add_argument("--policy", type=Path, required=True, metavar="DIR", help="a train-dp folder")
+    p.add_argument("--env", metavar="ENV_ID", help="must be the policy's env (a check)")
+    p.add_argument("--rounds", type=int, default=2, metavar="R", help="DAgger rounds")
+    p.add_argument("--episodes", type=int, default=20, metavar="E", help="learner episodes/round")
+    p.add_argument("--out", type=Path, required=True, metavar="OUT", help="the run folder")
+    p.add_argument(
+        "--dataset-id", required=True, metavar="NAMESPACE/NAME-vK", help="the aggregated dataset"
+    )
+    p.add_argument("--beta", type=float, default=0.5, help="expert share of chunks in round 1")
+    p.add_argument("--decay", type=float, default=0.5, help="its factor per later round")
+    p.add_argument(
+        "--label-budget", type=float, default=5.0, metavar="S", help="planning s per label query"
+    )
+    p.add_argument(
+        "--iterations", type=int, default=5_000, metavar="N", help="training iterations per round"
+    )
+    p.add_argument("--seed", type=int, default=0, metavar="N", help="learner noise, expert draws")
+    p.add_argument("--max-steps", type=int, metavar="N", help="cut learner episodes at N steps")
+    p.add_argument("--workers", type=int, metavar="W", help="parallel episodes (default: cores)")
+    add_backend(p)
+    p.set_defaults(func=_cmd_dagger)

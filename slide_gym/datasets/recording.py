@@ -166,12 +166,12 @@ def record_episode(config: CollectConfig, seed: int) -> RecordedEpisode:
 
     def on_reset(obs: dict[str, np.ndarray], info: dict[str, Any]) -> None:
         observations.append(obs)
-        infos.append(_step_info(info, base.get_state()))
+        infos.append(step_info(info, base.get_state()))
 
     def on_step(action: Any, obs: Any, reward: float, term: bool, trunc: bool, info: Any) -> None:
         steps.append((np.asarray(action, dtype=np.float32).reshape(-1), reward, term, trunc))
         observations.append(obs)
-        infos.append(_step_info(info, base.get_state()))
+        infos.append(step_info(info, base.get_state()))
 
     try:
         # The scene is drawn at reset; the agent is told its shapes to recognise them.
@@ -200,7 +200,7 @@ def record_episode(config: CollectConfig, seed: int) -> RecordedEpisode:
     finally:
         env.close()
     actions = np.stack([s[0] for s in steps])
-    stacked = _stack_infos(infos)
+    stacked = stack_infos(infos)
     if perturb is not None:
         stacked[LABEL_KEY] = np.concatenate([np.zeros_like(actions[:1]), np.stack(labels)])
     return RecordedEpisode(
@@ -216,14 +216,16 @@ def record_episode(config: CollectConfig, seed: int) -> RecordedEpisode:
     )
 
 
-def _step_info(info: dict[str, Any], sim_state: np.ndarray) -> dict[str, Any]:
+def step_info(info: dict[str, Any], sim_state: np.ndarray) -> dict[str, Any]:
+    """What a dataset keeps of one step's info (:data:`INFO_KEYS`, the state, the terms)."""
     out = {k: info[k] for k in INFO_KEYS}
     out["sim_state"] = sim_state
     out["reward_terms"] = dict(info["reward_terms"])
     return out
 
 
-def _stack_infos(infos: list[dict[str, Any]]) -> dict[str, Any]:
+def stack_infos(infos: list[dict[str, Any]]) -> dict[str, Any]:
+    """:func:`step_info` dicts of an episode as arrays (``reward_terms`` a dict of them)."""
     out: dict[str, Any] = {}
     for k in infos[0]:
         if k == "reward_terms":

@@ -156,7 +156,12 @@ def episode_buffer(e: RecordedEpisode) -> Any:
 
 
 def episode_attrs(e: RecordedEpisode) -> dict[str, Any]:
-    return {"success": e.success, "steps": e.steps, "record": json.dumps(e.record)}
+    return {
+        "success": e.success,
+        "steps": e.steps,
+        "dagger_round": int(e.record.get("dagger_round", 0)),
+        "record": json.dumps(e.record),
+    }
 
 
 def read_episodes(dataset: Any, indices: Iterable[int] | None = None) -> Iterator[RecordedEpisode]:

@@ -1,0 +1,321 @@
+"""DAgger with the replanning expert: the learner acts, the expert labels the states it
+reaches, the labels join the dataset, and the policy is trained again.
+
+Round ``r`` runs ``episodes`` learner episodes (reset seeds from :data:`DAGGER_SEED`, never
+a validation or test seed). At every chunk boundary (each ``action_horizon`` steps) a fresh
+:class:`~agents.planner_agent.PlannerAgent` is started from the current observation (it takes
+over from any state, deterministically seeded from the episode seed and the step) and gives
+the labels of the chunk's steps, seeing the same observations the learner sees. With
+probability ``beta * decay ** (r - 1)`` (seeded) the expert's actions are the ones executed
+for that chunk; otherwise the learner's are. A label query whose plan fails is dropped (its
+steps carry NaN labels, which the trainer skips) and counted.
+
+Each episode is kept like a collected one (executed actions, so a reset with its seed and
+options replays it exactly; the labels in ``infos["expert_action"]``; ``dagger_round`` in
+its metadata), staged under ``OUT/round-R/episodes`` as it finishes (a rerun resumes), and
+after each round the base dataset and every round so far are built into one Minari dataset,
+on which the policy is trained again, warm-started from the previous round's weights.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from agents.learned.policy import DiffusionPolicy, is_policy_dir
+from slide_gym.datasets.config import CollectConfig, check_dataset_id
+from slide_gym.datasets.recording import (
+    LABEL_KEY,
+    RecordedEpisode,
+    reset_options,
+    stack_infos,
+    step_info,
+)
+
+DAGGER_SEED = 40_000
+"""First reset seed of DAgger's learner episodes (collections start at 0, tests at 10000,
+validation at 20000)."""
+
+
+@dataclass(frozen=True)
+class DaggerConfig:
+    """One DAgger run.
+
+    Args:
+        rounds: learner-and-label rounds (each followed by training).
+        episodes: learner episodes per round.
+        beta, decay: the share of chunks the expert executes is ``beta * decay ** (r - 1)``
+            in round ``r``.
+        label_budget: planning seconds per label query (the expert gives up after it).
+        iterations: training iterations per round (warm-started from the last weights).
+        seed: the learner's sampling noise and the expert-share draws.
+        max_steps: cut learner episodes after this many steps (None: the env's time limit).
+    """
+
+    rounds: int = 2
+    episodes: int = 20
+    beta: float = 0.5
+    decay: float = 0.5
+    label_budget: float = 5.0
+    iterations: int = 5_000
+    seed: int = 0
+    max_steps: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.max_steps is not None and (
+            isinstance(self.max_steps, bool)
+            or not isinstance(self.max_steps, int)
+            or self.max_steps < 1
+        ):
+            raise ValueError(f"--max-steps must be a whole number >= 1, got {self.max_steps!r}")
+        for name in ("rounds", "episodes", "iterations"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ValueError(f"--{name} must be a whole number >= 1, got {value!r}")
+        for name in ("beta", "decay"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and 0.0 <= value <= 1.0):
+                raise ValueError(f"--{name} must be a number in [0, 1], got {value!r}")
+        if not (isinstance(self.label_budget, (int, float)) and self.label_budget > 0):
+            raise ValueError(f"--label-budget must be positive seconds, got {self.label_budget!r}")
+
+    def expert_share(self, round_: int) -> float:
+        return float(self.beta * self.decay ** (round_ - 1))
+
+
+def label_seed(episode_seed: int, step: int) -> int:
+    """The seed of the expert that labels the chunk starting at ``step``."""
+    return int(np.random.SeedSequence([int(episode_seed), int(step)]).generate_state(1)[0])
+
+
+def rollout_case(case: dict[str, Any]) -> dict[str, Any]:
+    """One learner episode with expert labels (a job-runner case); bytes in ``payload``."""
+    from agents.planner_agent import PlannerAgent
+
+    config = CollectConfig.from_json(case["config"])
+    seed, round_ = int(case["seed"]), int(case["round"])
+    policy = DiffusionPolicy.load(case["policy"], seed=seed)
+    horizon = policy.config.action_horizon
+    rng = np.random.default_rng([seed, round_, case["dagger_seed"]])
+    env = gym.make(config.env_id, **config.env_kwargs())
+    base = env.unwrapped
+    observations, infos, steps, labels = [], [], [], []
+    queries = failures = expert_chunks = 0
+    expert: PlannerAgent | None = None
+    wall = time.perf_counter()
+    try:
+        obs, info = env.reset(seed=seed)
+        options = reset_options(env, config)
+        observations.append(obs)
+        infos.append(step_info(info, base.get_state()))
+        t, done, expert_acts, failed = 0, False, False, False
+        while not done:
+            if t % horizon == 0:
+                if expert is not None:
+                    expert.close()
+                expert = PlannerAgent(
+                    config.agent,
+                    case["label_budget"],
+                    seed=label_seed(seed, t),
+                    objects=[base.task.object],
+                    tables=[base.task.table],
+                    control_mode=config.control_mode,
+                )
+                expert_acts = bool(rng.random() < case["expert_share"])
+                queries += 1
+            assert expert is not None
+            label, _ = expert.predict(obs, episode_start=np.array([t % horizon == 0]))
+            slot = expert.expert(0)
+            if t % horizon == 0:
+                failed = slot is not None and slot.phase == "failed"
+                failures += failed
+                expert_chunks += expert_acts and not failed
+            learner, _ = policy.predict(obs, episode_start=np.array([t == 0]))
+            action = label if expert_acts and not failed else learner
+            labels.append(np.full_like(label, np.nan) if failed else np.asarray(label))
+            obs, reward, term, trunc, info = env.step(action)
+            steps.append((np.asarray(action, np.float32), float(reward), term, trunc))
+            observations.append(obs)
+            infos.append(step_info(info, base.get_state()))
+            t += 1
+            done = term or trunc or (case["max_steps"] is not None and t >= case["max_steps"])
+    finally:
+        if expert is not None:
+            expert.close()
+        env.close()
+    actions = np.stack([s[0] for s in steps])
+    stacked = stack_infos(infos)
+    stacked[LABEL_KEY] = np.concatenate([np.zeros_like(actions[:1]), np.stack(labels)])
+    success = bool(info["is_success"])
+    record = {
+        "success": success,
+        "dagger_round": round_,
+        "label_queries": queries,
+        "label_failures": failures,
+        "expert_chunks": expert_chunks,
+        "steps": len(actions),
+        "wall_time_s": time.perf_counter() - wall,
+    }
+    episode = RecordedEpisode(
+        seed=seed,
+        options=options,
+        observations={k: np.stack([o[k] for o in observations]) for k in observations[0]},
+        actions=actions,
+        rewards=np.array([s[1] for s in steps]),
+        terminations=np.array([s[2] for s in steps], dtype=bool),
+        truncations=np.array([s[3] for s in steps], dtype=bool),
+        infos=stacked,
+        record=record,
+    )
+    return {
+        **{k: v for k, v in record.items() if k != "steps"},
+        "steps": len(actions),
+        "payload": episode.to_bytes(),
+    }
+
+
+def with_labels(episode: RecordedEpisode) -> RecordedEpisode:
+    """``episode`` with ``infos["expert_action"]`` (its own actions where it has none), so
+    demonstrations and labelled episodes share one set of info keys."""
+    if LABEL_KEY not in episode.infos:
+        actions = np.asarray(episode.actions, np.float32)
+        labels = np.concatenate([np.zeros_like(actions[:1]), actions])
+        episode.infos = {**episode.infos, LABEL_KEY: labels}
+    return episode
+
+
+def run_dagger(
+    policy_dir: Path,
+    out: Path,
+    dataset_id: str,
+    config: DaggerConfig,
+    *,
+    workers: int | None = None,
+    backend: str = "local",
+    address: str | None = None,
+    progress: bool = True,
+) -> dict[str, Any]:
+    """Run DAgger from the policy in ``policy_dir`` into folder ``out``; the aggregated
+    dataset is Minari ``dataset_id`` (rebuilt after each round). Returns a summary with one
+    row per round. Rerunning the same command resumes where it stopped."""
+    from agents.learned.train import TrainConfig, train_diffusion
+    from slide_gym.bench.jobs import check_backend, run_cases
+    from slide_gym.datasets.store import build_dataset, load, read_episodes
+
+    check_dataset_id(dataset_id)
+    check_backend(backend, address)
+    if not is_policy_dir(policy_dir):
+        raise ValueError(
+            f"--policy {str(policy_dir)!r} holds no diffusion policy (no policy.pt); train one "
+            "with `slide-gym train-dp DATASET_ID --out DIR`"
+        )
+    card = json.loads((Path(policy_dir) / "policy.json").read_text())
+    base_id = card.get("dataset_id")
+    if not base_id:
+        raise ValueError(f"{str(policy_dir)!r}: its policy.json names no dataset_id")
+    if base_id == dataset_id:
+        raise ValueError(f"--dataset-id must differ from the policy's dataset {base_id!r}")
+    base = load(base_id)
+    collect = CollectConfig.from_json(base.storage.metadata["slide_gym"]["config"])
+    out = Path(out)
+    current, rows = Path(policy_dir), []
+    for r in range(1, config.rounds + 1):
+        stage = out / f"round-{r}"
+        (stage / "episodes").mkdir(parents=True, exist_ok=True)
+        share = config.expert_share(r)
+        first = DAGGER_SEED + (r - 1) * config.episodes
+        cases = [
+            {
+                "seed": s,
+                "round": r,
+                "policy": str(current),
+                "config": collect.to_json(),
+                "expert_share": share,
+                "label_budget": float(config.label_budget),
+                "dagger_seed": config.seed,
+                "max_steps": config.max_steps,
+            }
+            for s in range(first, first + config.episodes)
+        ]
+
+        def store(case: dict[str, Any], result: dict[str, Any], stage: Path = stage) -> dict:
+            path = stage / "episodes" / f"seed-{case['seed']:08d}.npz"
+            tmp = path.with_suffix(f".{os.getpid()}.tmp")
+            tmp.write_bytes(result.pop("payload"))
+            os.replace(tmp, path)
+            return result
+
+        results = run_cases(
+            rollout_case,
+            cases,
+            stage / "episodes.jsonl",
+            workers,
+            desc=f"dagger round {r}",
+            backend=backend,
+            address=address,
+            store=store,
+            success_key="success",
+        )
+        episodes = [with_labels(e) for e in read_episodes(base)]
+        for k in range(1, r + 1):
+            for path in sorted((out / f"round-{k}" / "episodes").glob("seed-*.npz")):
+                episodes.append(RecordedEpisode.from_bytes(path.read_bytes()))
+        env = gym.make(collect.env_id, **collect.env_kwargs())
+        try:
+            meta = {
+                **base.storage.metadata["slide_gym"],
+                "dagger": {"base_dataset": base_id, "rounds": r, "config": config.__dict__},
+            }
+            dataset = build_dataset(
+                dataset_id,
+                iter(episodes),
+                env,
+                meta,
+                algorithm_name="slide-gym DAgger (diffusion policy, planner expert labels)",
+                description=f"{base_id} and {r} DAgger round(s) of learner episodes labelled "
+                "by the replanning expert (infos['expert_action']).",
+            )
+        finally:
+            env.close()
+        policy_out = stage / "policy"
+        summary = train_diffusion(
+            dataset,
+            policy_out,
+            train=TrainConfig(
+                iterations=config.iterations,
+                seed=config.seed,
+                val_every=0,
+                val_episodes=int(card["training"].get("val_episodes", 20)),
+            ),
+            env_id=collect.env_id,
+            env_kwargs=collect.env_kwargs(),
+            card={"dataset_id": dataset_id, "dagger_round": r, "init": str(current)},
+            resume=(policy_out / "checkpoint.pt").exists(),
+            init=current / "policy.pt",
+            progress=progress,
+        )
+        queries = sum(int(x["label_queries"]) for x in results)
+        rows.append(
+            {
+                "round": r,
+                "expert_share": share,
+                "episodes": len(results),
+                "learner_successes": sum(bool(x["success"]) for x in results),
+                "label_queries": queries,
+                "label_failures": sum(int(x["label_failures"]) for x in results),
+                "labelled_steps": sum(int(x["steps"]) for x in results),
+                "dataset_episodes": len(episodes),
+                "validation": summary.get("checkpoint"),
+                "policy": str(policy_out),
+            }
+        )
+        (out / "dagger.json").write_text(json.dumps({"rounds": rows}, indent=2) + "\n")
+        current = policy_out
+    return {"policy": str(current), "dataset_id": dataset_id, "rounds": rows}

@@ -21,6 +21,8 @@ from slide_gym.experiments.stats import wilson_interval
 from slide_gym.planning.api import PLANNERS
 from slide_gym.planning.result import check_time_budget
 
+RANDOM = "random"
+"""The agent name of uniform random actions."""
 TEST_SEED = 10_000
 """First reset seed of the test episodes (collections start at 0)."""
 VALIDATION_SEED = 20_000
@@ -87,10 +89,32 @@ def _planner_agent(planner: str, env: gym.Env, seed: int, time_budget: float) ->
     )
 
 
+class RandomAgent:
+    """Uniform random actions in ``space`` from a seeded generator: the scale a learned
+    policy is read against."""
+
+    def __init__(self, space: gym.spaces.Box, seed: int = 0) -> None:
+        self.space = space
+        self.rng = np.random.default_rng(seed)
+
+    def predict(
+        self,
+        observation: dict[str, np.ndarray],
+        state: Any = None,
+        episode_start: Any = None,
+        deterministic: bool = True,
+    ) -> tuple[np.ndarray, Any]:
+        batch = np.asarray(observation["arm_qpos"]).shape[:-1]
+        shape = (*batch, *self.space.shape)
+        return self.rng.uniform(self.space.low, self.space.high, shape).astype(np.float32), state
+
+
 def _open_agent(agent: Any) -> tuple[str | None, Any, dict[str, Any]]:
     """``(planner name or None, policy with predict or None, env_kwargs of its card)``."""
     if hasattr(agent, "predict"):
         return None, agent, dict(getattr(agent, "card", {}).get("env_kwargs", {}))
+    if agent == RANDOM:
+        return None, RANDOM, {}
     if isinstance(agent, str) and agent in PLANNERS:
         return agent, None, {}
     from agents.learned.policy import CARD_FILE, DiffusionPolicy, is_policy_dir
@@ -107,7 +131,7 @@ def _open_agent(agent: Any) -> tuple[str | None, Any, dict[str, Any]]:
     model_path = _model_file(agent)
     if model_path is None:
         raise ValueError(
-            f"agent must be a planner ({', '.join(PLANNERS)}), a policy folder (from "
+            f"agent must be a planner ({', '.join(PLANNERS)}), {RANDOM!r}, a policy folder (from "
             f"train-dp) or an existing SB3 model .zip file, got {str(agent)!r}"
         )
     return None, load_model(model_path), dict(read_model_card(model_path).get("env_kwargs", {}))
@@ -128,7 +152,8 @@ def evaluate(
     seeds ``seed``, ``seed + 1``, ... and report how often it succeeded.
 
     Args:
-        agent: a saved SB3 model (``.zip``; PPO, else SAC; acts with ``deterministic=True``),
+        agent: ``"random"`` (uniform random actions, seeded with ``seed``), a saved SB3 model
+            (``.zip``; PPO, else SAC; acts with ``deterministic=True``),
             a diffusion-policy folder (``slide-gym train-dp``), any object with SB3's
             ``predict``, or a planner name (``"regions"``, ``"cbirrt"``, ``"cbirrt2"``: a
             :class:`~agents.planner_agent.PlannerAgent` per episode, seeded with the episode's
@@ -163,6 +188,8 @@ def evaluate(
     kwargs.update(env_kwargs or {})
 
     env = gym.make(env_id, **kwargs)
+    if model is RANDOM:
+        model = RandomAgent(env.action_space, seed)
     wall = time.perf_counter()
     results: list[dict[str, Any]] = []
     try:

@@ -60,7 +60,8 @@ def _take_over(env_id: str, actions: list, k: int) -> tuple[dict, list[str], str
 
 def _first(infos: list, phases: list, phase: str, test=lambda i: True) -> int:
     """Steps replayed to reach the first state of ``phase`` that passes ``test``."""
-    return next(t + 1 for t, (i, p) in enumerate(zip(infos, phases, strict=True)) if p == phase and test(i))
+    pairs = enumerate(zip(infos, phases, strict=True))
+    return next(t + 1 for t, (i, p) in pairs if p == phase and test(i))
 
 
 def test_from_a_fingertip_pressed_on_the_plate(episode):

@@ -273,15 +273,20 @@ def add_parsers(sub: Any) -> None:
         "evaluate",
         "success rate of a saved policy or a planner agent",
         "Run episodes with reset seeds SEED, SEED+1, ... (default 10000: held out from "
-        "collections, which start at 0) and print the success rate with a 95 % Wilson "
-        "interval and the mean episode length.",
+        "collections, which start at 0, and from the validation seeds of train-dp, from "
+        "20000) and print the success rate with a 95 % Wilson interval and the mean episode "
+        "length. AGENT is a saved SB3 model, a train-dp folder, 'random' or a planner.",
         [
             "slide-gym evaluate models/bc.zip --env SlideGym/TopSlide-v0 --episodes 20",
+            "slide-gym evaluate models/dp-square --env SlideGym/TopSlide-v0 --episodes 100",
             "slide-gym evaluate regions --env SlideGym/TopSlide-v0 --episodes 20 --json",
         ],
     )
     p.add_argument(
-        "agent", metavar="MODEL.zip|PLANNER", help=f"a saved model or one of {', '.join(PLANNERS)}"
+        "agent",
+        metavar="AGENT",
+        help="a saved SB3 model (.zip), a train-dp policy folder, 'random', or a planner: "
+        f"{', '.join(PLANNERS)}",
     )
     add_choice(p, "--env", DICT_ENV_IDS, "env", f"one of {envs}", EXPERT_ENV_ID, "ID")
     p.add_argument("--episodes", type=int, required=True, metavar="N", help="episodes")

@@ -1,0 +1,355 @@
+"""Learning from the expert's demonstrations: the rows of the README's "Learning" table.
+
+Each row collects its dataset (``slide-gym collect``, resumable), trains its policy
+(``slide-gym train-dp`` / ``train-bc`` / ``dagger``, resumable) into ``MODELS/ROW``, and
+evaluates it on 100 test episodes (reset seeds from 10000; a diffusion policy's checkpoint
+was chosen on validation seeds from 20000). Rows are appended to ``OUT/rows.jsonl`` as they
+finish (with the code version, the demonstrations, the training time on one core and the
+command); ``report`` writes ``OUT/learning.md`` and ``OUT/learning_curves.png`` from them.
+
+    OMP_NUM_THREADS=1 python benchmarks/learning.py list
+    OMP_NUM_THREADS=1 python benchmarks/learning.py run dp-square-slide --models models
+    OMP_NUM_THREADS=1 python benchmarks/learning.py report
+
+Datasets live in Minari's folder (``MINARI_DATASETS_PATH``). One row's training takes up to
+an hour on one core; run rows side by side on separate cores.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+SLIDE, GRASP = "SlideGym/TopSlide-v0", "SlideGym/TopSlideGrasp-v0"
+SQUARE = {"object": "square", "table": "square"}
+CATALOG = {"object": "random", "table": "random"}
+EPISODES = 100
+TEST_SEED = 10_000
+OUT = Path("docs/results/learning")
+
+
+@dataclass(frozen=True)
+class Row:
+    """One line of the table: a method trained on one dataset, tested in one scene."""
+
+    name: str
+    method: str  # "random", "expert", "bc", "dp", "dp-dart", "dp-dagger"
+    env_id: str
+    scene: dict[str, str]
+    dataset: str | None = None  # the Minari id
+    collect: dict[str, Any] = field(default_factory=dict)  # CollectConfig fields, episodes
+    train: list[str] = field(default_factory=list)  # extra train-dp / dagger arguments
+    base: str | None = None  # dagger: the row whose policy it starts from
+
+
+SQUARE_SLIDE = {"episodes": 200, "only_success": True}
+ROWS = {
+    r.name: r
+    for r in [
+        Row("random-square-slide", "random", SLIDE, SQUARE),
+        Row("expert-square-slide", "expert", SLIDE, SQUARE),
+        Row("bc-square-slide", "bc", SLIDE, SQUARE, "slide-gym/square-slide-v1", SQUARE_SLIDE),
+        Row("dp-square-slide", "dp", SLIDE, SQUARE, "slide-gym/square-slide-v1", SQUARE_SLIDE),
+        *(
+            Row(
+                f"dp-square-slide-seed{s}",
+                "dp",
+                SLIDE,
+                SQUARE,
+                "slide-gym/square-slide-v1",
+                SQUARE_SLIDE,
+                ["--seed", str(s)],
+            )
+            for s in (1, 2)
+        ),
+        Row(
+            "dp-square-slide-nofeat",
+            "dp",
+            SLIDE,
+            SQUARE,
+            "slide-gym/square-slide-v1",
+            SQUARE_SLIDE,
+            ["--no-features"],
+        ),
+        Row(
+            "dp-dart-square-slide",
+            "dp-dart",
+            SLIDE,
+            SQUARE,
+            "slide-gym/square-slide-dart-v1",
+            {**SQUARE_SLIDE, "action_noise": 0.05},
+        ),
+        Row(
+            "dp-dagger-square-slide",
+            "dp-dagger",
+            SLIDE,
+            SQUARE,
+            "slide-gym/square-slide-dagger-v1",
+            {},
+            ["--rounds", "1", "--episodes", "40"],
+            base="dp-square-slide",
+        ),
+        Row("expert-square-grasp", "expert", GRASP, SQUARE),
+        Row("bc-square-grasp", "bc", GRASP, SQUARE, "slide-gym/square-grasp-v1", SQUARE_SLIDE),
+        Row("dp-square-grasp", "dp", GRASP, SQUARE, "slide-gym/square-grasp-v1", SQUARE_SLIDE),
+        Row("expert-catalog-slide", "expert", SLIDE, CATALOG),
+        Row(
+            "dp-catalog-slide",
+            "dp",
+            SLIDE,
+            CATALOG,
+            "slide-gym/catalog-slide-v1",
+            {"episodes": 400, "only_success": True},
+        ),
+    ]
+}
+
+
+def command(row: Row, models: Path) -> str:
+    """The ``slide-gym`` commands that make the row (what the table cites)."""
+    out = models / row.name
+    scene = f"--object {row.scene['object']} --table {row.scene['table']}"
+    test = f"--episodes {EPISODES} --seed {TEST_SEED}"
+    if row.method in ("random", "expert"):
+        agent = "regions" if row.method == "expert" else "random"
+        return f"slide-gym evaluate {agent} --env {row.env_id} {scene} {test}"
+    c = row.collect
+    noise = f" --action-noise {c['action_noise']}" if c.get("action_noise") else ""
+    collect = (
+        f"slide-gym collect --env {row.env_id} {scene} --episodes {c.get('episodes')} "
+        f"--only-success{noise} --dataset-id {row.dataset}"
+    )
+    if row.method == "bc":
+        train = f"slide-gym train-bc {row.dataset} --out {out}.zip --steps 5000"
+        return f"{collect}; {train}; slide-gym evaluate {out}.zip --env {row.env_id} {test}"
+    if row.method == "dp-dagger":
+        base = models / str(row.base)
+        train = (
+            f"slide-gym dagger --env {row.env_id} --policy {base} {' '.join(row.train)} "
+            f"--out {out} --dataset-id {row.dataset}"
+        )
+        return f"{train}; slide-gym evaluate {out}/round-1/policy --env {row.env_id} {test}"
+    train = f"slide-gym train-dp {row.dataset} --out {out} {' '.join(row.train)}".rstrip()
+    return f"{collect}; {train}; slide-gym evaluate {out} --env {row.env_id} {test}"
+
+
+def _collect(row: Row) -> None:
+    from slide_gym.datasets.collect import collect
+    from slide_gym.datasets.config import CollectConfig
+
+    c = dict(row.collect)
+    episodes = c.pop("episodes")
+    config = CollectConfig(env_id=row.env_id, **row.scene, **c)
+    collect(config, episodes, str(row.dataset), workers=1)
+
+
+def _cli(*args: str) -> None:
+    from slide_gym.cli import main
+
+    code = main(list(args))
+    if code != 0:
+        raise SystemExit(f"slide-gym {' '.join(args)} exited with {code}")
+
+
+def run(row: Row, models: Path, out: Path) -> dict[str, Any]:
+    from agents.evaluate import evaluate
+    from slide_gym.experiments.version import code_version
+
+    start = time.perf_counter()
+    agent: Any
+    training: dict[str, Any] = {}
+    if row.method in ("random", "expert"):
+        agent = "random" if row.method == "random" else "regions"
+    else:
+        if row.method != "dp-dagger":
+            _collect(row)
+        path = models / row.name
+        if row.method == "bc":
+            zip_path = path.with_suffix(".zip")
+            if not zip_path.exists():
+                _cli("train-bc", str(row.dataset), "--out", str(zip_path), "--steps", "5000")
+            agent = zip_path
+            training = json.loads(zip_path.with_suffix(".json").read_text())["training"]
+        elif row.method == "dp-dagger":
+            base = models / str(row.base)
+            _cli(
+                "dagger",
+                "--env",
+                row.env_id,
+                "--policy",
+                str(base),
+                *row.train,
+                "--out",
+                str(path),
+                "--dataset-id",
+                str(row.dataset),
+            )
+            agent = path / "round-1" / "policy"
+            training = json.loads((agent / "policy.json").read_text())
+            base_card = json.loads((base / "policy.json").read_text())
+            training["base_train_time_s"] = base_card["checkpoint"]["train_time_s"]
+        else:
+            if not (path / "policy.json").exists() or _unfinished(path):
+                resume = ["--resume"] if (path / "checkpoint.pt").exists() else []
+                _cli("train-dp", str(row.dataset), "--out", str(path), *row.train, *resume)
+            agent = path
+            training = json.loads((path / "policy.json").read_text())
+    env_kwargs = dict(row.scene)
+    result = evaluate(
+        agent,
+        row.env_id,
+        episodes=EPISODES,
+        seed=TEST_SEED,
+        env_kwargs=env_kwargs,
+        progress=True,
+    )
+    record = {
+        "row": row.name,
+        "method": row.method,
+        "env_id": row.env_id,
+        "scene": row.scene,
+        "dataset": row.dataset,
+        "training": training,
+        "episodes": result["episodes"],
+        "successes": result["successes"],
+        "success_rate": result["success_rate"],
+        "ci95": result["ci95"],
+        "mean_length": result["mean_length"],
+        "test_seeds": [TEST_SEED, TEST_SEED + EPISODES - 1],
+        "eval_wall_s": result["wall_time_s"],
+        "wall_s": time.perf_counter() - start,
+        "command": command(row, models),
+        "code_version": code_version(),
+    }
+    out.mkdir(parents=True, exist_ok=True)
+    with (out / "rows.jsonl").open("a") as f:
+        f.write(json.dumps(record) + "\n")
+    if row.method.startswith("dp"):
+        curve = agent / "progress.csv" if row.method != "dp-dagger" else None
+        if curve is not None and curve.exists():
+            (out / "curves").mkdir(exist_ok=True)
+            shutil.copy(curve, out / "curves" / f"{row.name}.csv")
+    return record
+
+
+def _unfinished(path: Path) -> bool:
+    card = json.loads((path / "policy.json").read_text())
+    return card["checkpoint"]["iteration"] < card["training"]["iterations"]
+
+
+def latest_rows(out: Path) -> dict[str, dict[str, Any]]:
+    """The last row written for each name."""
+    rows: dict[str, dict[str, Any]] = {}
+    path = out / "rows.jsonl"
+    if path.exists():
+        for line in path.read_text().splitlines():
+            if line.strip():
+                row = json.loads(line)
+                rows[row["row"]] = row
+    return rows
+
+
+def report(out: Path) -> Path:
+    rows = latest_rows(out)
+    lines = [
+        "| row | env | scene | demonstrations | training (1 core) | success (95 % CI) "
+        "| mean length |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for name in ROWS:
+        if name not in rows:
+            continue
+        r = rows[name]
+        t = r.get("training") or {}
+        demos = t.get("demonstrations", {})
+        if r["method"] == "bc":
+            demos = {"episodes": t.get("episodes"), "frames": t.get("frames")}
+        n_demo = f"{demos['episodes']} ({demos['frames']} steps)" if demos else "-"
+        seconds = (t.get("checkpoint") or {}).get("train_time_s") or t.get("train_time_s")
+        if r["method"] == "dp-dagger" and seconds is not None:
+            seconds += t.get("base_train_time_s", 0.0)
+        iters = (t.get("checkpoint") or {}).get("iteration") or t.get("steps")
+        train = f"{seconds / 60:.0f} min, {iters} it" if seconds else "-"
+        lo, hi = r["ci95"]
+        lines.append(
+            f"| {name} | {r['env_id'].split('/')[1]} | {r['scene']['object']} on "
+            f"{r['scene']['table']} | {n_demo} | {train} | **{100 * r['success_rate']:.0f} %** "
+            f"({100 * lo:.0f}-{100 * hi:.0f}) | {r['mean_length']:.0f} |"
+        )
+    lines += ["", "Commands (code version per row):", ""]
+    lines += [f"- `{r['row']}` ({r['code_version']}): `{r['command']}`" for r in rows.values()]
+    md = out / "learning.md"
+    md.write_text("\n".join(lines) + "\n")
+    _plot_curves(out)
+    return md
+
+
+def _plot_curves(out: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import csv
+
+    import matplotlib.pyplot as plt
+
+    curves = sorted((out / "curves").glob("*.csv")) if (out / "curves").exists() else []
+    if not curves:
+        return
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.6))
+    for path in curves:
+        rows = list(csv.DictReader(path.open()))
+        it = [int(r["iteration"]) for r in rows]
+        ax1.plot(it, [float(r["loss"]) for r in rows], label=path.stem)
+        val = [r for r in rows if r["val_success_rate"]]
+        ax2.plot(
+            [int(r["iteration"]) for r in val],
+            [100 * float(r["val_success_rate"]) for r in val],
+            marker="o",
+            label=path.stem,
+        )
+    ax1.set_yscale("log")
+    ax1.set_xlabel("iteration")
+    ax1.set_ylabel("noise-prediction loss")
+    ax2.set_xlabel("iteration")
+    ax2.set_ylabel("validation success (%, 20 episodes)")
+    ax2.set_ylim(0, 100)
+    ax2.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(out / "learning_curves.png", dpi=110)
+    plt.close(fig)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="cmd", required=True)
+    sub.add_parser("list", help="the rows and their commands")
+    p = sub.add_parser("run", help="make rows (collect, train, evaluate)")
+    p.add_argument("rows", nargs="+", choices=sorted(ROWS), metavar="ROW")
+    p.add_argument("--models", type=Path, default=Path("models"))
+    p.add_argument("--out", type=Path, default=OUT)
+    p = sub.add_parser("report", help="learning.md and learning_curves.png from the rows")
+    p.add_argument("--out", type=Path, default=OUT)
+    args = parser.parse_args()
+    if args.cmd == "list":
+        for row in ROWS.values():
+            print(f"{row.name}: {command(row, Path('models'))}")
+    elif args.cmd == "run":
+        for name in args.rows:
+            record = run(ROWS[name], args.models, args.out)
+            print(json.dumps({k: record[k] for k in ("row", "success_rate", "ci95")}))
+    else:
+        print(report(args.out))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,5 +1,6 @@
 """Policies for slide-gym environments: the planners as closed-loop experts, a scripted slider
-(no planner), learned agents to come.
+(no planner), and policies learned from the expert (:mod:`agents.learned`: the diffusion
+policy, ``DiffusionPolicy.load(folder)``).
 
 ``PlannerAgent`` has Stable-Baselines3's ``predict`` interface; ``run_episode`` runs one
 expert episode and returns its ``EpisodeRecord`` (``to_json_dict()`` is the ``slide-gym run``

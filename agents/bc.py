@@ -82,14 +82,22 @@ def _check_spaces(dataset: minari.MinariDataset, env: gym.Env) -> None:
         raise ValueError(f"train_bc needs a 1-D Box action space, got {act_space}")
 
 
-def load_pairs(dataset: minari.MinariDataset) -> tuple[dict[str, np.ndarray], np.ndarray, int]:
+def load_pairs(
+    dataset: minari.MinariDataset, only_success: bool = True
+) -> tuple[dict[str, np.ndarray], np.ndarray, int]:
     """All ``(observation_t, action_t)`` pairs of ``dataset`` (each episode's last observation
     has no action and is dropped): float32 observation arrays by key, the actions, and the
-    number of episodes."""
+    number of episodes. ``only_success``: leave out episodes whose ``success`` flag is unset
+    (a failed or idle expert episode teaches the wrong thing; an episode without the flag,
+    from another tool, is kept)."""
     obs: dict[str, list[np.ndarray]] = {}
     actions: list[np.ndarray] = []
     episodes = 0
-    for ep in dataset.iterate_episodes():
+    ids = list(range(dataset.total_episodes))
+    metas = list(dataset.storage.get_episode_metadata(ids))
+    for ep, meta in zip(dataset.iterate_episodes(ids), metas, strict=True):
+        if only_success and not bool(meta.get("success", True)):
+            continue
         n = len(ep.actions)
         if not isinstance(ep.observations, dict):
             raise ValueError("train_bc needs Dict observations in the dataset")
@@ -104,7 +112,9 @@ def load_pairs(dataset: minari.MinariDataset) -> tuple[dict[str, np.ndarray], np
         actions.append(np.asarray(ep.actions, np.float32).reshape(n, -1))
         episodes += 1
     if not actions or sum(len(a) for a in actions) == 0:
-        raise ValueError("the dataset is empty (no episodes with steps)")
+        raise ValueError(
+            "the dataset has no successful episode with steps (collect with --only-success)"
+        )
     return {k: np.concatenate(v) for k, v in obs.items()}, np.concatenate(actions), episodes
 
 

@@ -16,7 +16,7 @@ import pytest  # noqa: E402
 import torch  # noqa: E402
 
 import slide_gym  # noqa: E402,F401 - registers the environments
-from agents.learned.data import ChunkSampler, load_demonstrations  # noqa: E402
+from agents.learned.data import ChunkSampler, chunk_to_actions, load_demonstrations  # noqa: E402
 from agents.learned.diffusion import DiffusionConfig  # noqa: E402
 from agents.learned.features import task_features  # noqa: E402
 from agents.learned.policy import DiffusionPolicy  # noqa: E402
@@ -122,14 +122,31 @@ def test_windows_clamp_at_the_start_and_pad_at_the_end(dart):
     assert demos.episodes == 2 and np.array_equal(
         demos.labels[: demos.lengths[0]], dart[0].infos[LABEL_KEY][1:]
     )
-    sampler = ChunkSampler(demos, obs_horizon=2, pred_horizon=16)
+    sampler = ChunkSampler(demos, obs_horizon=2, pred_horizon=16, representation="deltas")
     assert len(sampler) == demos.frames
     first_obs = sampler.inputs[sampler.obs_rows[0]]
     np.testing.assert_array_equal(first_obs[0], first_obs[1])  # the first input repeats
+    np.testing.assert_array_equal(sampler.chunks[0, 1:], demos.labels[:15])
+    assert np.all(sampler.chunks[0, 0, :7] == 0)  # before the start: no motion
     last = demos.lengths[0] - 1
-    tail = sampler.actions[sampler.act_rows[last]]
+    tail = sampler.chunks[last]
+    np.testing.assert_array_equal(tail[1], demos.labels[last])
     assert np.all(tail[2:, :7] == 0)  # past the end: the arm holds still ...
     assert np.all(tail[2:, 7] == demos.labels[last, 7])  # ... and the hand keeps its command
+
+
+def test_offset_chunks_give_back_the_actions(dart):
+    """Offsets are the running sum of the increments from the current step; turned back into
+    actions they are the labels."""
+    demos = load_demonstrations(dart, with_features=False)
+    offsets = ChunkSampler(demos, 2, 16, representation="offsets")
+    deltas = ChunkSampler(demos, 2, 16, representation="deltas")
+    for w in (0, 5, demos.lengths[0] - 3, demos.lengths[0] + 7):
+        assert np.all(offsets.chunks[w, 0, :7] == 0)  # the target before the current step
+        got = chunk_to_actions(offsets.chunks[w], 1, 8, "offsets")
+        np.testing.assert_allclose(got, deltas.chunks[w, 1:9], atol=1e-5)
+        plain = chunk_to_actions(deltas.chunks[w], 1, 8, "deltas")
+        np.testing.assert_array_equal(plain, deltas.chunks[w, 1:9])
 
 
 def test_training_lowers_the_loss_and_writes_its_files(trained):

@@ -52,13 +52,6 @@ class Demonstrations:
         std = np.where(std < 1e-6, 1.0, np.maximum(std, MIN_STD))
         return mean.astype(np.float32), std.astype(np.float32)
 
-    def label_range(self) -> tuple[np.ndarray, np.ndarray]:
-        """Per-entry minimum and maximum of the labels, zero included (the end padding);
-        dropped labels (NaN) are left out."""
-        low = np.minimum(np.nanmin(self.labels, axis=0), 0.0)
-        high = np.maximum(np.nanmax(self.labels, axis=0), 0.0)
-        return low.astype(np.float32), high.astype(np.float32)
-
 
 def episode_labels(episode: Any) -> np.ndarray:
     """(T, A) targets of a Minari episode: the expert's labels if recorded, else its actions."""
@@ -113,42 +106,90 @@ def load_demonstrations(
     )
 
 
+ACTION_REPRESENTATIONS = ("offsets", "deltas")
+"""How a chunk holds the arm part of its actions: ``"offsets"`` (each step's target relative
+to the target before the window's current step, the running sum of the increments: a short
+trajectory, as position control is in Chi et al.) or ``"deltas"`` (the per-step increments
+the env takes). The hand command is absolute in both."""
+
+
+def chunk_to_actions(chunk: np.ndarray, first: int, count: int, representation: str) -> np.ndarray:
+    """The env actions of chunk entries ``first .. first + count - 1`` (``first``: the
+    current step's index in the chunk). With offsets, a step's arm increment is its offset
+    minus the previous step's; the offset before the current step is 0 by construction."""
+    out = chunk[first : first + count].copy()
+    if representation == "offsets":
+        arm = out[:, :-1].copy()
+        out[:, :-1] = arm - np.concatenate([np.zeros_like(arm[:1]), arm[:-1]])
+    return out
+
+
 class ChunkSampler:
     """Index tables of every window of :class:`Demonstrations` (one per step), and batches.
 
-    Window ``t`` of an episode holds inputs ``t - obs_horizon + 1 .. t`` and actions
-    ``t - obs_horizon + 1 .. t - obs_horizon + pred_horizon`` (clamped at the start, padded
-    at the end), so the policy's chunk begins at its oldest observation, as in Chi et al.
+    Window ``t`` of an episode holds inputs ``t - obs_horizon + 1 .. t`` and the actions of
+    steps ``t - obs_horizon + 1 .. t - obs_horizon + pred_horizon`` (inputs clamped at the
+    start; past the end the arm holds still and the hand keeps its last command), so the
+    policy's chunk begins at its oldest observation, as in Chi et al. With
+    ``representation="offsets"`` the arm entries are cumulative (see
+    :data:`ACTION_REPRESENTATIONS`); steps before the episode count as no motion.
     Windows that hold a dropped (NaN) label are left out and counted in ``dropped``.
     """
 
-    def __init__(self, demos: Demonstrations, obs_horizon: int, pred_horizon: int) -> None:
-        arm_dims = demos.labels.shape[1] - 1
-        padded, obs_rows, act_rows = [], [], []
-        offset = 0
+    def __init__(
+        self,
+        demos: Demonstrations,
+        obs_horizon: int,
+        pred_horizon: int,
+        representation: str = "offsets",
+    ) -> None:
+        if representation not in ACTION_REPRESENTATIONS:
+            raise ValueError(
+                f"representation must be one of {', '.join(ACTION_REPRESENTATIONS)}, "
+                f"got {representation!r}"
+            )
+        arm = demos.labels.shape[1] - 1
+        obs_rows, chunks = [], []
         for start, n in zip(demos.starts, demos.lengths, strict=True):
             labels = demos.labels[start : start + n]
-            pad = np.zeros((pred_horizon, labels.shape[1]), np.float32)
-            pad[:, arm_dims:] = labels[-1, arm_dims:]  # hold the last hand command
-            padded.append(np.concatenate([labels, pad]))
+            # steps -obs_horizon+1 .. n+pred_horizon-1: before the start no motion, the first
+            # hand command; after the end no motion, the last hand command
+            before = np.zeros((obs_horizon - 1, labels.shape[1]), np.float32)
+            before[:, arm:] = labels[0, arm:]
+            after = np.zeros((pred_horizon, labels.shape[1]), np.float32)
+            after[:, arm:] = labels[-1, arm:]
+            steps = np.concatenate([before, labels, after])  # step s at row s + obs_horizon - 1
             t = np.arange(n)
-            first = t - obs_horizon + 1
-            obs_rows.append(start + np.clip(first[:, None] + np.arange(obs_horizon), 0, None))
-            act_rows.append(offset + np.clip(first[:, None] + np.arange(pred_horizon), 0, None))
-            offset += n + pred_horizon
+            rows = t[:, None] + np.arange(pred_horizon)  # window t's steps, as rows of `steps`
+            chunk = steps[rows]
+            if representation == "offsets":
+                cum = np.concatenate([np.zeros((1, arm), np.float32), np.cumsum(steps[:, :arm], 0)])
+                # offset of step s: sum of increments up to s minus those before step t
+                chunk[..., :arm] = cum[rows + 1] - cum[(t + obs_horizon - 1)[:, None]]
+            chunks.append(chunk)
+            obs_rows.append(
+                start + np.clip(t[:, None] - obs_horizon + 1 + np.arange(obs_horizon), 0, None)
+            )
         self.inputs = demos.inputs
-        self.actions = np.concatenate(padded)
-        obs_idx, act_idx = np.concatenate(obs_rows), np.concatenate(act_rows)
+        self.representation = representation
+        chunk_arr, obs_idx = np.concatenate(chunks), np.concatenate(obs_rows)
         # a window with a dropped label (a failed DAgger query) teaches nothing reliable
-        valid = ~np.isnan(self.actions[act_idx]).any(axis=(1, 2))
-        self.obs_rows, self.act_rows = obs_idx[valid], act_idx[valid]
+        valid = ~np.isnan(chunk_arr).any(axis=(1, 2))
+        self.chunks, self.obs_rows = chunk_arr[valid], obs_idx[valid]
         self.dropped = int((~valid).sum())
 
     def __len__(self) -> int:
         return len(self.obs_rows)
 
+    def chunk_stats(self) -> tuple[np.ndarray, ...]:
+        """Mean, standard deviation, minimum and maximum of every chunk entry, each
+        ``(pred_horizon, action_dim)``: what :meth:`DiffusionModel.set_stats` scales by."""
+        c = self.chunks.astype(np.float64)
+        stats = (c.mean(axis=0), c.std(axis=0), c.min(axis=0), c.max(axis=0))
+        return tuple(a.astype(np.float32) for a in stats)
+
     def batch(self, rng: np.random.Generator, size: int) -> tuple[np.ndarray, np.ndarray]:
         """``size`` windows drawn uniformly with replacement: inputs (B, obs_horizon, D) and
-        actions (B, pred_horizon, A)."""
+        chunks (B, pred_horizon, A)."""
         idx = rng.integers(0, len(self), size=size)
-        return self.inputs[self.obs_rows[idx]], self.actions[self.act_rows[idx]]
+        return self.inputs[self.obs_rows[idx]], self.chunks[idx]

@@ -34,6 +34,13 @@ class DiffusionConfig:
         train_steps: DDPM diffusion steps (squared-cosine schedule).
         inference_steps: DDIM steps when acting.
         with_features: add :func:`agents.learned.features.task_features` to the inputs.
+        actions: ``"offsets"`` or ``"deltas"``, how a chunk holds the arm's motion
+            (:data:`agents.learned.data.ACTION_REPRESENTATIONS`).
+        scaling: ``"standard"``: each chunk entry (position in the chunk, action entry)
+            standardised with the dataset's mean and standard deviation, so the signal has
+            unit variance as the noise schedule assumes; ``"minmax"``: scaled to [-1, 1] by
+            the dataset's range (Chi et al., ManiSkill). Either way the sampler clips the
+            clean estimate to the dataset's range.
     """
 
     obs_horizon: int = 2
@@ -44,6 +51,8 @@ class DiffusionConfig:
     train_steps: int = 100
     inference_steps: int = 10
     with_features: bool = True
+    actions: str = "offsets"
+    scaling: str = "standard"
 
     def __post_init__(self) -> None:
         for name in ("obs_horizon", "pred_horizon", "action_horizon", "train_steps"):
@@ -61,6 +70,10 @@ class DiffusionConfig:
                 f"2 ** (levels - 1) = {2 ** (len(self.channels) - 1)} for channels "
                 f"{list(self.channels)}"
             )
+        if self.scaling not in ("standard", "minmax"):
+            raise ValueError(f"scaling must be 'standard' or 'minmax', got {self.scaling!r}")
+        if self.actions not in ("offsets", "deltas"):
+            raise ValueError(f"actions must be 'offsets' or 'deltas', got {self.actions!r}")
         if not 1 <= self.inference_steps <= self.train_steps:
             raise ValueError(
                 f"inference_steps must be in 1..train_steps ({self.train_steps}), "
@@ -91,29 +104,45 @@ class DiffusionModel(nn.Module):
         )
         self.register_buffer("obs_mean", torch.zeros(input_dim))
         self.register_buffer("obs_std", torch.ones(input_dim))
-        self.register_buffer("action_center", torch.zeros(action_dim))
-        self.register_buffer("action_half_range", torch.ones(action_dim))
+        chunk = (config.pred_horizon, action_dim)
+        self.register_buffer("action_shift", torch.zeros(chunk))
+        self.register_buffer("action_scale", torch.ones(chunk))
+        self.register_buffer("clip_low", -torch.ones(chunk))
+        self.register_buffer("clip_high", torch.ones(chunk))
         self.register_buffer("alpha_bar", squared_cosine_alpha_bar(config.train_steps))
 
     def set_stats(
-        self, obs_mean: torch.Tensor, obs_std: torch.Tensor, low: torch.Tensor, high: torch.Tensor
+        self,
+        obs_mean: torch.Tensor,
+        obs_std: torch.Tensor,
+        chunk_mean: torch.Tensor,
+        chunk_std: torch.Tensor,
+        chunk_low: torch.Tensor,
+        chunk_high: torch.Tensor,
     ) -> None:
-        """Standardise inputs with ``obs_mean``/``obs_std``; map actions in [low, high] to
-        [-1, 1] (an action entry with no range keeps a half range of 1)."""
+        """Standardise inputs with ``obs_mean``/``obs_std``; scale chunks (``(pred_horizon,
+        action_dim)`` statistics) by ``config.scaling``; an entry with no spread keeps scale
+        1 (it becomes 0)."""
         self.obs_mean.copy_(obs_mean)
         self.obs_std.copy_(obs_std)
-        half = (high - low) / 2
-        self.action_center.copy_((high + low) / 2)
-        self.action_half_range.copy_(torch.where(half < 1e-6, torch.ones_like(half), half))
+        if self.config.scaling == "minmax":
+            shift, scale = (chunk_high + chunk_low) / 2, (chunk_high - chunk_low) / 2
+        else:
+            shift, scale = chunk_mean, chunk_std
+        scale = torch.where(scale < 1e-6, torch.ones_like(scale), scale)
+        self.action_shift.copy_(shift)
+        self.action_scale.copy_(scale)
+        self.clip_low.copy_((chunk_low - shift) / scale)
+        self.clip_high.copy_((chunk_high - shift) / scale)
 
     def normalize_obs(self, x: torch.Tensor) -> torch.Tensor:
         return torch.clamp((x - self.obs_mean) / self.obs_std, -OBS_CLIP, OBS_CLIP)
 
     def normalize_action(self, a: torch.Tensor) -> torch.Tensor:
-        return (a - self.action_center) / self.action_half_range
+        return (a - self.action_shift) / self.action_scale
 
     def unnormalize_action(self, a: torch.Tensor) -> torch.Tensor:
-        return a * self.action_half_range + self.action_center
+        return a * self.action_scale + self.action_shift
 
     def loss(
         self, obs: torch.Tensor, actions: torch.Tensor, generator: torch.Generator | None = None
@@ -135,7 +164,8 @@ class DiffusionModel(nn.Module):
     ) -> torch.Tensor:
         """(B, pred_horizon, action_dim) raw actions for ``obs`` (B, obs_horizon, input_dim),
         by deterministic DDIM (eta 0) over ``steps`` (default ``config.inference_steps``)
-        evenly spaced diffusion steps; the clean estimate is clipped to [-1, 1] each step."""
+        evenly spaced diffusion steps; the clean estimate is clipped to the dataset's range
+        each step."""
         steps = self.config.inference_steps if steps is None else int(steps)
         cond = self.normalize_obs(obs).flatten(1)
         n = len(cond)
@@ -145,7 +175,7 @@ class DiffusionModel(nn.Module):
         for i, t in enumerate(times):
             ab = self.alpha_bar[t]
             eps = self.net(x, torch.full((n,), t, dtype=torch.long), cond)
-            x0 = ((x - (1 - ab).sqrt() * eps) / ab.sqrt()).clamp(-1.0, 1.0)
+            x0 = torch.clamp((x - (1 - ab).sqrt() * eps) / ab.sqrt(), self.clip_low, self.clip_high)
             eps = (x - ab.sqrt() * x0) / (1 - ab).sqrt()
             ab_prev = self.alpha_bar[times[i + 1]] if i + 1 < len(times) else torch.tensor(1.0)
             x = ab_prev.sqrt() * x0 + (1 - ab_prev).sqrt() * eps

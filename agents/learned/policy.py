@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from agents.learned.data import chunk_to_actions
 from agents.learned.diffusion import DiffusionConfig, DiffusionModel
 from agents.learned.features import policy_input
 from slide_gym.planning.result import json_values
@@ -140,9 +141,10 @@ class DiffusionPolicy:
         if need:
             window = torch.from_numpy(np.stack([np.stack(self._history[i]) for i in need]))
             chunks = self.model.sample(window, self.generator, self.inference_steps).numpy()
-            first = self.config.obs_horizon - 1
+            first, count = self.config.obs_horizon - 1, self.config.action_horizon
             for i, chunk in zip(need, chunks, strict=True):
-                self._queues[i] = list(chunk[first : first + self.config.action_horizon])
+                actions = chunk_to_actions(chunk, first, count, self.config.actions)
+                self._queues[i] = list(actions)
         actions = np.stack([self._queues[i].pop(0) for i in range(n)])
         actions = np.clip(actions, -1.0, 1.0).astype(np.float32)
         return (actions if batched else actions[0]), state

@@ -138,7 +138,7 @@ def train_diffusion(
         )
     torch.set_num_threads(1)
     demos = load_demonstrations(dataset, with_features=config.with_features)
-    sampler = ChunkSampler(demos, config.obs_horizon, config.pred_horizon)
+    sampler = ChunkSampler(demos, config.obs_horizon, config.pred_horizon, config.actions)
     torch.manual_seed(train.seed)
     model = DiffusionModel(config, demos.inputs.shape[1], demos.labels.shape[1])
     if init_model is not None:
@@ -149,7 +149,7 @@ def train_diffusion(
             )
         model.load_state_dict(init_model.state_dict())
     else:
-        stats = (*demos.input_stats(), *demos.label_range())
+        stats = (*demos.input_stats(), *sampler.chunk_stats())
         model.set_stats(*(torch.from_numpy(a) for a in stats))
     ema = EMA(model)
     optimizer = torch.optim.AdamW(

@@ -19,6 +19,8 @@ def _cmd_train_dp(args: argparse.Namespace) -> int:
         channels=tuple(args.channels),
         inference_steps=args.inference_steps,
         with_features=not args.no_features,
+        actions=args.actions,
+        scaling=args.scaling,
     )
     train = TrainConfig(
         iterations=args.iterations,
@@ -119,6 +121,18 @@ def add_parsers(sub: Any) -> None:
         "--no-features",
         action="store_true",
         help="leave out the task features (plate in the fingertip frame, edge, overhang)",
+    )
+    p.add_argument(
+        "--actions",
+        default="offsets",
+        choices=("offsets", "deltas"),
+        help="chunk arm motion as offsets from the current target, or per-step increments",
+    )
+    p.add_argument(
+        "--scaling",
+        default="standard",
+        choices=("standard", "minmax"),
+        help="chunk entries standardised, or scaled to [-1, 1] by their range",
     )
     p.add_argument("--log-every", type=int, default=500, metavar="N", help="rows, checkpoints")
     p.add_argument("--val-every", type=int, default=5_000, metavar="N", help="0: at the end only")

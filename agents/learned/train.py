@@ -73,7 +73,7 @@ class TrainConfig:
 
     iterations: int = 20_000
     batch_size: int = 64
-    learning_rate: float = 3e-4
+    learning_rate: float = 1e-3
     weight_decay: float = 1e-6
     warmup: int = 500
     seed: int = 0

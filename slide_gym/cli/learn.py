@@ -21,6 +21,7 @@ def _cmd_train_dp(args: argparse.Namespace) -> int:
         with_features=not args.no_features,
         actions=args.actions,
         scaling=args.scaling,
+        obs_embed=args.obs_embed,
     )
     train = TrainConfig(
         iterations=args.iterations,
@@ -104,9 +105,9 @@ def add_parsers(sub: Any) -> None:
     )
     p.add_argument("dataset_id", metavar="DATASET_ID", help="a local Minari dataset id")
     p.add_argument("--out", type=Path, required=True, metavar="DIR", help="the run folder")
-    p.add_argument("--iterations", type=int, default=30_000, metavar="N", help="gradient steps")
+    p.add_argument("--iterations", type=int, default=20_000, metavar="N", help="gradient steps")
     p.add_argument("--batch-size", type=int, default=64, metavar="B", help="windows per step")
-    p.add_argument("--lr", type=float, default=3e-4, metavar="LR", help="AdamW peak rate")
+    p.add_argument("--lr", type=float, default=1e-3, metavar="LR", help="AdamW peak rate")
     p.add_argument("--seed", type=int, default=0, metavar="N", help="training seed")
     p.add_argument(
         "--channels",
@@ -133,6 +134,13 @@ def add_parsers(sub: Any) -> None:
         default="standard",
         choices=("standard", "minmax"),
         help="chunk entries standardised, or scaled to [-1, 1] by their range",
+    )
+    p.add_argument(
+        "--obs-embed",
+        type=int,
+        default=0,
+        metavar="N",
+        help="condition on an MLP embedding of this size (0: the observations themselves)",
     )
     p.add_argument("--log-every", type=int, default=500, metavar="N", help="rows, checkpoints")
     p.add_argument("--val-every", type=int, default=5_000, metavar="N", help="0: at the end only")

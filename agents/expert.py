@@ -18,7 +18,8 @@ fingertip is pressed, :class:`~agents.tracking.ContactTracker` corrects the plan
 
 The expert takes over from any state, not only from an episode's start (what DAgger needs
 of it): from its first observation it reads where things are. A plate in the closed hand is
-lifted and held; a fingertip pressed on the plate first rises off it (``release``); a plate
+lifted and held; a fingertip pressed on the plate (or low near the table) first rises
+(``release``); a plate
 already graspable gets its grasp at once; a plate partly over the edge is planned from where
 it lies (as a replan is); anything else is planned as at the start.
 
@@ -62,11 +63,11 @@ from slide_gym.planning.api import (
 )
 from slide_gym.planning.result import PlanStatus
 from slide_gym.robot.kinematics import FastChain, fingertip_chain, grasp_chain
-from slide_gym.robot.model import ARM_LOWER, ARM_UPPER
+from slide_gym.robot.model import ARM_LOWER, ARM_UPPER, READY_ARM_Q
 
-TOUCH_HEIGHT = 0.01
-"""m: a fingertip this close above the plate's top face, over the plate, is taken to press
-it when the expert takes over (it rises before anything is planned)."""
+LOW_TIP_HEIGHT = 0.03
+"""m: a fingertip this close above the table top (pressing the plate, or low beside it) when
+the expert takes over rises first: from there every route would start in collision."""
 HELD_HEIGHT = 0.01
 """m: a plate whose bottom is this far above the table top, with the hand closed, is in the
 hand when the expert takes over (it lifts and holds)."""
@@ -239,15 +240,15 @@ class SlideGraspExpert:
         pose = self._object_pose(obs)
         placed = transform_polygon(self.obj.polygon, *pose)
         tip = np.asarray(obs["fingertip_pose"][:3], dtype=float)
-        top = float(obs["table_height"][0]) + self.obj.thickness
-        over = placed.buffer(0.01).contains(shapely.Point(tip[0], tip[1]))
-        if over and tip[2] - top < TOUCH_HEIGHT:
+        if tip[2] - float(obs["table_height"][0]) < LOW_TIP_HEIGHT:
             h = p.lift_off_height
             line = rise(self.tip, self.q_cmd, (h, h / 2, h / 4), True, self.rng)
             if line is None:
-                self._fail("no IK solution to lift the fingertip off the plate")
+                self._fail("no IK solution to raise the fingertip")
                 return True
-            self.report.events.append("took over with the fingertip on the plate: released it")
+            on_plate = placed.buffer(0.01).contains(shapely.Point(tip[0], tip[1]))
+            where = "on the plate" if on_plate else "low over the table"
+            self.report.events.append(f"took over with the fingertip {where}: raised it")
             self._push(Segment("release", line, 1.0, p.lift_off_speed), self.tip)
             return True
         if overhang(placed, self.table.polygon).graspable(p.grasp_u_star):
@@ -380,8 +381,9 @@ class SlideGraspExpert:
         self, q_pre: np.ndarray, pose: np.ndarray
     ) -> tuple[list[np.ndarray] | np.ndarray | None, str]:
         """An approach to ``q_pre`` when neither the direct move nor the one via the pose
-        15 cm above it is free: via poses raised higher, else a joint route planned with at
-        most ``route_iterations`` search iterations. ``(route, "")`` or ``(None, why)``."""
+        15 cm above it is free: via poses raised higher, via the ready pose (for an arm the
+        expert took over somewhere else), else a joint route planned with at most
+        ``route_iterations`` search iterations. ``(route, "")`` or ``(None, why)``."""
         planner = self.planner
         assert planner is not None and self.q_cmd is not None
         for lift in APPROACH_RAISES[1:]:
@@ -391,6 +393,10 @@ class SlideGraspExpert:
             if q_high is not None and planner.route_free([self.q_cmd, q_high, q_pre], pose):
                 self.report.events.append(f"approach via a pose raised {lift:.2f} m")
                 return [self.q_cmd, q_high, q_pre], ""
+        ready = np.asarray(READY_ARM_Q, dtype=float)  # an arm taken over far from any plan
+        if planner.route_free([self.q_cmd, ready, q_pre], pose):
+            self.report.events.append("approach via the ready pose")
+            return [self.q_cmd, ready, q_pre], ""
         budget = self._budget_left()
         if budget <= 0.0:
             return None, "direct and raised moves collide and the planning budget is used up"

@@ -10,6 +10,8 @@ command); ``report`` writes ``OUT/learning.md`` and ``OUT/learning_curves.png`` 
     OMP_NUM_THREADS=1 python benchmarks/learning.py list
     OMP_NUM_THREADS=1 python benchmarks/learning.py run dp-square-slide --models models
     OMP_NUM_THREADS=1 python benchmarks/learning.py report
+    OMP_NUM_THREADS=1 python benchmarks/learning.py fit models/dp-square-slide \
+        --dataset slide-gym/square-slide-v1
 
 Datasets live in Minari's folder (``MINARI_DATASETS_PATH``). One row's training takes up to
 an hour on one core; run rows side by side on separate cores.
@@ -328,6 +330,34 @@ def _plot_curves(out: Path) -> None:
     plt.close(fig)
 
 
+def fit(policy_dir: Path, dataset_id: str, windows: int = 128) -> dict[str, Any]:
+    """How well a policy reproduces its demonstrations: ``windows`` training windows (seeded),
+    the executed part of a sampled chunk against the labels (mean absolute error per action
+    entry, in action units), with 10, 50 and 100 DDIM steps."""
+    import minari
+    import numpy as np
+    import torch
+
+    from agents.learned import DiffusionPolicy
+    from agents.learned.data import ChunkSampler, chunk_to_actions, load_demonstrations
+
+    policy = DiffusionPolicy.load(policy_dir)
+    cfg = policy.config
+    demos = load_demonstrations(minari.load_dataset(dataset_id), with_features=cfg.with_features)
+    mine = ChunkSampler(demos, cfg.obs_horizon, cfg.pred_horizon, cfg.actions)
+    plain = ChunkSampler(demos, cfg.obs_horizon, cfg.pred_horizon, "deltas")
+    idx = np.random.default_rng(0).integers(0, len(mine), windows)
+    obs = torch.from_numpy(mine.inputs[mine.obs_rows[idx]])
+    first, count = cfg.obs_horizon - 1, cfg.action_horizon
+    want = plain.chunks[idx][:, first : first + count]
+    out: dict[str, Any] = {"policy": str(policy_dir), "label_mean_abs": float(np.abs(want).mean())}
+    for steps in (10, 50, 100):
+        chunks = policy.model.sample(obs, torch.Generator().manual_seed(0), steps=steps).numpy()
+        got = np.stack([chunk_to_actions(c, first, count, cfg.actions) for c in chunks])
+        out[f"error_{steps}_steps"] = float(np.abs(got - want).mean())
+    return out
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="cmd", required=True)
@@ -336,12 +366,18 @@ def main() -> int:
     p.add_argument("rows", nargs="+", choices=sorted(ROWS), metavar="ROW")
     p.add_argument("--models", type=Path, default=Path("models"))
     p.add_argument("--out", type=Path, default=OUT)
+    p = sub.add_parser("fit", help="a policy's action error on its training windows")
+    p.add_argument("policies", nargs="+", type=Path, metavar="DIR")
+    p.add_argument("--dataset", required=True, metavar="ID")
     p = sub.add_parser("report", help="learning.md and learning_curves.png from the rows")
     p.add_argument("--out", type=Path, default=OUT)
     args = parser.parse_args()
     if args.cmd == "list":
         for row in ROWS.values():
             print(f"{row.name}: {command(row, Path('models'))}")
+    elif args.cmd == "fit":
+        for path in args.policies:
+            print(json.dumps(fit(path, args.dataset)))
     elif args.cmd == "run":
         for name in args.rows:
             record = run(ROWS[name], args.models, args.out)

@@ -69,7 +69,7 @@ def test_from_a_fingertip_pressed_on_the_plate(episode):
     k = _first(infos, phases, "press", lambda i: i["touching_robot"]) + 5  # pressed in
     info, events, failure = _take_over(GRASP, actions, k)
     assert failure is None and info["is_success"]
-    assert events[0].startswith("took over with the fingertip on the plate")
+    assert events[0] == "took over with the fingertip on the plate: raised it"
 
 
 @pytest.mark.parametrize("env_id", ["SlideGym/TopSlide-v0", GRASP])

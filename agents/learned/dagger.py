@@ -108,6 +108,7 @@ def rollout_case(case: dict[str, Any]) -> dict[str, Any]:
     base = env.unwrapped
     observations, infos, steps, labels = [], [], [], []
     queries = failures = expert_chunks = 0
+    reasons: dict[str, int] = {}
     expert: PlannerAgent | None = None
     wall = time.perf_counter()
     try:
@@ -136,6 +137,9 @@ def rollout_case(case: dict[str, Any]) -> dict[str, Any]:
             if t % horizon == 0:
                 failed = slot is not None and slot.phase == "failed"
                 failures += failed
+                if failed and slot is not None:
+                    why = str(slot.report.failure).split(":")[0]
+                    reasons[why] = reasons.get(why, 0) + 1
                 expert_chunks += expert_acts and not failed
             learner, _ = policy.predict(obs, episode_start=np.array([t == 0]))
             action = label if expert_acts and not failed else learner
@@ -159,6 +163,7 @@ def rollout_case(case: dict[str, Any]) -> dict[str, Any]:
         "dagger_round": round_,
         "label_queries": queries,
         "label_failures": failures,
+        "label_failure_reasons": reasons,
         "expert_chunks": expert_chunks,
         "steps": len(actions),
         "wall_time_s": time.perf_counter() - wall,

@@ -44,5 +44,14 @@ for _env_id, (_kwargs, _steps) in _SPECS.items():
         )
 
 from slide_gym.geometry import OBJECT_NAMES, TABLE_NAMES  # noqa: E402
+from slide_gym.task import TaskParams  # noqa: E402
 
-__all__ = ["DICT_ENV_IDS", "ENV_IDS", "EXPERT_ENV_ID", "OBJECT_NAMES", "TABLE_NAMES", "__version__"]
+__all__ = [
+    "DICT_ENV_IDS",
+    "ENV_IDS",
+    "EXPERT_ENV_ID",
+    "OBJECT_NAMES",
+    "TABLE_NAMES",
+    "TaskParams",
+    "__version__",
+]

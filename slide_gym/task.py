@@ -6,7 +6,9 @@ The task knows nothing about actions; the environment joins it with the robot.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import shapely
@@ -51,6 +53,23 @@ class TaskParams:
     spinning_friction: float = 0.003
     start_margin: float = 0.01
     """Random start poses keep the object this far (m) inside the table outline."""
+
+    @classmethod
+    def of(cls, params: TaskParams | Mapping[str, Any] | None) -> TaskParams:
+        """``params`` itself, the defaults for None, or a TaskParams from a dict of its fields
+        (JSON-friendly, as ``gym.make(..., task_params={...})`` passes it); ValueError
+        naming an unknown field and the allowed ones."""
+        if params is None:
+            return cls()
+        if isinstance(params, cls):
+            return params
+        if not isinstance(params, Mapping):
+            raise ValueError(f"task_params must be a TaskParams or a dict, got {params!r}")
+        fields = [f.name for f in dataclasses.fields(cls)]
+        unknown = sorted(set(params) - set(fields))
+        if unknown:
+            raise ValueError(f"unknown task_params {unknown}; allowed: {', '.join(fields)}")
+        return cls(**params)
 
     def __post_init__(self) -> None:
         positive = ("u_star", "lift_height", "lift_hold_s", "rest_speed")
@@ -218,8 +237,8 @@ def add_table_body(sim: Simulation, table: TableShape, friction: float = 0.5) ->
 class TopSlideTask:
     """Builds the table and object in a :class:`Simulation` and reads the scene state."""
 
-    def __init__(self, params: TaskParams | None = None):
-        self.params = params or TaskParams()
+    def __init__(self, params: TaskParams | Mapping[str, Any] | None = None):
+        self.params = TaskParams.of(params)
         self.object: ObjectShape | None = None
         self.table: TableShape | None = None
 

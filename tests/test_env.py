@@ -237,3 +237,18 @@ def test_a_plate_touching_the_table_is_not_lifted() -> None:
         )
     finally:
         env.close()
+
+
+def test_task_params_as_a_dict_and_unknown_fields():
+    """gym.make passes JSON-friendly kwargs: a dict of TaskParams fields works, a wrong field
+    is a ValueError that names the allowed ones (not an AttributeError from inside reset)."""
+    from slide_gym import TaskParams
+
+    env = gym.make("SlideGym/TopSlide-v0", task_params={"table_friction": 0.2})
+    try:
+        env.reset(seed=0)
+        assert env.unwrapped.task.params == TaskParams(table_friction=0.2)
+    finally:
+        env.close()
+    with pytest.raises(ValueError, match="allowed: u_star"):
+        gym.make("SlideGym/TopSlide-v0", task_params={"table_frction": 0.2})

@@ -155,7 +155,8 @@ class TopSlideEnv(gym.Env):
       (``target`` (world, m), ``distance`` (m), ``yaw``, ``pitch``, ``fov`` (degrees);
       default ``(0.45, 0, 0.15)``, 1.35, 60, -30, 45).
     - ``control_hz`` (default 20), ``physics_hz`` (default 240), ``max_joint_step`` (rad per
-      control step, default 0.05), ``task_params``: a :class:`TaskParams`.
+      control step, default 0.05), ``task_params``: a :class:`TaskParams` or a dict of its
+      fields (``{"table_friction": 0.2}``).
     - ``control_mode``: ``"joint_delta"`` (default) or ``"ee_delta"`` (see Action Space), with
       ``max_tip_step`` (m per control step, default 0.01) and ``max_rot_step`` (rad, 0.05).
     """
@@ -173,7 +174,7 @@ class TopSlideEnv(gym.Env):
         control_hz: float = 20.0,
         physics_hz: float = 240.0,
         max_joint_step: float = 0.05,
-        task_params: TaskParams | None = None,
+        task_params: TaskParams | dict[str, Any] | None = None,
         thickness: float | None = None,
         control_mode: str = "joint_delta",
         obs_mode: str = "state",

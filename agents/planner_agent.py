@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from agents.batch import as_batch
 from agents.ee_actions import EEActions
 from agents.expert import SlideGraspExpert
 from agents.params import EXPERT_SLIDE_PARAMS, ExpertParams
@@ -108,22 +109,13 @@ class PlannerAgent:
     ) -> tuple[np.ndarray, Any]:
         """Actions for one observation (8,) or a batch (n, 8) (7 wide in ee_delta mode); ``state``
         is passed through."""
-        if not isinstance(observation, dict) or "arm_qpos" not in observation:
-            raise ValueError("observation must be a TopSlide Dict observation (with 'arm_qpos')")
-        batched = np.asarray(observation["arm_qpos"]).ndim == 2
-        n = len(observation["arm_qpos"]) if batched else 1
-        starts = (
-            np.zeros(n, bool) if episode_start is None else np.asarray(episode_start, bool)
-        ).reshape(-1)
-        if len(starts) != n:
-            raise ValueError(f"episode_start has {len(starts)} entries for {n} observations")
+        batch, batched, starts = as_batch(observation, episode_start)
+        n = len(starts)
         self._slots += [None] * (n - len(self._slots))
         self._started += [False] * (n - len(self._started))
         actions = []
         for i in range(n):
-            obs = {
-                k: np.asarray(v)[i] if batched else np.asarray(v) for k, v in observation.items()
-            }
+            obs = {k: v[i] for k, v in batch.items()}
             slot = self._slots[i]
             repeated = starts[i] and self._started[i]
             jumped = self._was_reset(slot, obs)

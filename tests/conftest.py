@@ -10,6 +10,7 @@ and a budget far above what its case needs. Tests marked ``slow`` run whole expe
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable
 
@@ -62,3 +63,16 @@ def solve_top_slide() -> Callable[..., PlanResult]:
             return pl.solve(PLAN_BUDGET)
 
     return solve
+
+
+@pytest.fixture(scope="module")
+def minari_root(tmp_path_factory):
+    """A private Minari folder for the test module (Minari reads the variable on every call)."""
+    root = tmp_path_factory.mktemp("minari")
+    old = os.environ.get("MINARI_DATASETS_PATH")
+    os.environ["MINARI_DATASETS_PATH"] = str(root)
+    yield root
+    if old is None:
+        del os.environ["MINARI_DATASETS_PATH"]
+    else:
+        os.environ["MINARI_DATASETS_PATH"] = old

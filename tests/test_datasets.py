@@ -22,19 +22,6 @@ ENV_ID = "SlideGym/TopSlide-v0"
 DATASET = "test/square-slide-v0"
 
 
-@pytest.fixture(scope="module")
-def minari_root(tmp_path_factory):
-    """A private Minari folder for this module (Minari reads the variable on every call)."""
-    root = tmp_path_factory.mktemp("minari")
-    old = os.environ.get("MINARI_DATASETS_PATH")
-    os.environ["MINARI_DATASETS_PATH"] = str(root)
-    yield root
-    if old is None:
-        del os.environ["MINARI_DATASETS_PATH"]
-    else:
-        os.environ["MINARI_DATASETS_PATH"] = old
-
-
 def _collect(*args: str) -> int:
     return main(["collect", "--env", ENV_ID, "--time-budget", "60", *args])
 

@@ -34,19 +34,6 @@ TINY = DiffusionConfig(channels=(16, 32), step_embed_dim=16, train_steps=20, inf
 
 
 @pytest.fixture(scope="module")
-def minari_root(tmp_path_factory):
-    """A private Minari folder for this module (Minari reads the variable on every call)."""
-    root = tmp_path_factory.mktemp("minari")
-    old = os.environ.get("MINARI_DATASETS_PATH")
-    os.environ["MINARI_DATASETS_PATH"] = str(root)
-    yield root
-    if old is None:
-        del os.environ["MINARI_DATASETS_PATH"]
-    else:
-        os.environ["MINARI_DATASETS_PATH"] = old
-
-
-@pytest.fixture(scope="module")
 def dart(minari_root):
     """2 expert slide episodes with DART noise (seeds 3, 4)."""
     args = ["collect", "--env", ENV_ID, "--episodes", "2", "--seed", "3", "--workers", "1"]

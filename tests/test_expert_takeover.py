@@ -36,6 +36,17 @@ def episode():
     return actions, infos, phases
 
 
+def _finish(env: gym.Env, agent: PlannerAgent, obs: dict) -> dict:
+    """Let ``agent`` act from ``obs`` (its first observation) to the episode's end; the last
+    info."""
+    n, done = 0, False
+    while not done:
+        action, _ = agent.predict(obs, episode_start=np.array([n == 0]))
+        obs, _, term, trunc, info = env.step(action)
+        n, done = n + 1, term or trunc
+    return info
+
+
 def _take_over(env_id: str, actions: list, k: int) -> tuple[dict, list[str], str | None]:
     """Replay ``k`` expert actions, then let a fresh expert finish; its last info, events and
     failure."""
@@ -45,11 +56,7 @@ def _take_over(env_id: str, actions: list, k: int) -> tuple[dict, list[str], str
         for action in actions[:k]:
             obs, *_ = env.step(action)
         fresh = PlannerAgent("regions", 60.0, seed=SEED)
-        n, done = 0, False
-        while not done:
-            action, _ = fresh.predict(obs, episode_start=np.array([n == 0]))
-            obs, _, term, trunc, info = env.step(action)
-            n, done = n + 1, term or trunc
+        info = _finish(env, fresh, obs)
         expert = fresh.expert(0)
         events, failure = list(expert.report.events), expert.report.failure
         fresh.close()
@@ -104,11 +111,7 @@ def test_from_another_arm_pose_within_the_limits():
         arm = [0.3, -0.6, 0.2, 1.9, -0.3, 0.4, 0.2]
         obs, _ = env.reset(seed=SEED, options={"arm_qpos": arm})
         agent = PlannerAgent("regions", 60.0, seed=SEED)
-        n, done = 0, False
-        while not done:
-            action, _ = agent.predict(obs, episode_start=np.array([n == 0]))
-            obs, _, term, trunc, info = env.step(action)
-            n, done = n + 1, term or trunc
+        info = _finish(env, agent, obs)
         assert agent.expert(0).report.failure is None and info["is_success"]
         agent.close()
     finally:

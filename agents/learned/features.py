@@ -24,21 +24,9 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-STATE_KEYS = (
-    "arm_qpos",
-    "arm_qvel",
-    "finger_qpos",
-    "finger_qvel",
-    "hand_command",
-    "fingertip_pose",
-    "object_pose",
-    "object_velocity",
-    "object_outline",
-    "object_holes",
-    "object_hole_mask",
-    "table_outline",
-    "table_height",
-)
+from slide_gym.envs.observation import FLAT_KEYS, SCENE_KEYS
+
+STATE_KEYS = (*FLAT_KEYS, *SCENE_KEYS)
 """The state observation's entries, in the order :func:`flatten` packs them."""
 TASK_FEATURES = (
     ("plate_in_tip", 3),

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from agents.batch import as_batch
 from agents.learned.data import chunk_to_actions
 from agents.learned.diffusion import DiffusionConfig, DiffusionModel
 from agents.learned.features import policy_input
@@ -118,16 +119,9 @@ class DiffusionPolicy:
     ) -> tuple[np.ndarray, Any]:
         """The action for one observation (A,) or a batch (n, A); ``state`` is passed through.
         Sampling is deterministic given the seed either way (DDIM with eta 0)."""
-        if not isinstance(observation, dict) or "arm_qpos" not in observation:
-            raise ValueError("observation must be a slide-gym Dict observation (with 'arm_qpos')")
-        batched = np.asarray(observation["arm_qpos"]).ndim == 2
-        obs = {k: np.asarray(v) if batched else np.asarray(v)[None] for k, v in observation.items()}
-        n = len(obs["arm_qpos"])
+        obs, batched, starts = as_batch(observation, episode_start)
+        n = len(starts)
         inputs = policy_input(obs, self.config.with_features)
-        starts = np.zeros(n, bool) if episode_start is None else np.asarray(episode_start, bool)
-        starts = starts.reshape(-1)
-        if len(starts) != n:
-            raise ValueError(f"episode_start has {len(starts)} entries for {n} observations")
         while len(self._history) < n:
             self._history.append([])
             self._queues.append([])

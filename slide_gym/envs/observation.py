@@ -56,6 +56,14 @@ FLAT_KEYS = (
     "object_velocity",
 )
 """Observation entries read from the simulator each step, in the order they are packed."""
+SCENE_KEYS = (
+    "object_outline",
+    "object_holes",
+    "object_hole_mask",
+    "table_outline",
+    "table_height",
+)
+"""Observation entries fixed for an episode (the scene's descriptors)."""
 
 
 def box(low: Any, high: Any, shape: tuple[int, ...]) -> spaces.Box:

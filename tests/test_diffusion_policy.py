@@ -96,6 +96,19 @@ def test_dart_labels_are_the_experts_clean_actions(dart):
             agent.close()
 
 
+def test_a_collection_without_noise_keeps_its_identity():
+    """``action_noise`` is in a configuration's JSON only when set, so collections made before
+    DART existed resume (their cases keep their keys) and DART ones differ from them."""
+    from slide_gym.datasets.config import CollectConfig
+
+    plain = CollectConfig(env_id=ENV_ID)
+    assert "action_noise" not in plain.to_json()
+    assert CollectConfig.from_json(plain.to_json()) == plain
+    noisy = CollectConfig(env_id=ENV_ID, action_noise=NOISE)
+    assert noisy.to_json()["action_noise"] == NOISE
+    assert noisy.differences(plain) == [f"action_noise: {NOISE!r} != 0.0"]
+
+
 def test_features_read_the_envs_overhang(dart):
     ep = next(read_episodes(dart))
     feats = task_features(ep.observations)

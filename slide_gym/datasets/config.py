@@ -112,7 +112,12 @@ class CollectConfig:
         return kwargs
 
     def to_json(self) -> dict[str, Any]:
-        return dataclasses.asdict(self)
+        """The fields as JSON values; ``action_noise`` only when set, so that collections
+        made before the field existed keep their identity (and resume)."""
+        data = dataclasses.asdict(self)
+        if not data["action_noise"]:
+            del data["action_noise"]
+        return data
 
     @classmethod
     def from_json(cls, data: dict[str, Any]) -> CollectConfig:
@@ -121,5 +126,5 @@ class CollectConfig:
 
     def differences(self, other: CollectConfig) -> list[str]:
         """``"name: mine != theirs"`` for every field that differs."""
-        a, b = self.to_json(), other.to_json()
+        a, b = dataclasses.asdict(self), dataclasses.asdict(other)
         return [f"{k}: {a[k]!r} != {b[k]!r}" for k in a if a[k] != b[k]]

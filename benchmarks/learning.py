@@ -34,6 +34,8 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 SLIDE, GRASP = "SlideGym/TopSlide-v0", "SlideGym/TopSlideGrasp-v0"
 SQUARE = {"object": "square", "table": "square"}
 CATALOG = {"object": "random", "table": "random"}
+EE = {"control_mode": "ee_delta"}
+"""Fingertip-pose increments instead of joint increments (the env's ``control_mode``)."""
 EPISODES = 100
 TEST_SEED = 10_000
 OUT = Path("docs/results/learning")
@@ -112,6 +114,49 @@ ROWS = {
             "slide-gym/catalog-slide-v1",
             {"episodes": 400, "only_success": True},
         ),
+        Row("expert-ee-square-slide", "expert", SLIDE, {**SQUARE, **EE}),
+        Row(
+            "bc-ee-square-slide",
+            "bc",
+            SLIDE,
+            {**SQUARE, **EE},
+            "slide-gym/square-slide-ee-v1",
+            SQUARE_SLIDE,
+        ),
+        Row(
+            "dp-ee-square-slide",
+            "dp",
+            SLIDE,
+            {**SQUARE, **EE},
+            "slide-gym/square-slide-ee-v1",
+            SQUARE_SLIDE,
+        ),
+        Row(
+            "dp-ee-square-slide-nofeat",
+            "dp",
+            SLIDE,
+            {**SQUARE, **EE},
+            "slide-gym/square-slide-ee-v1",
+            SQUARE_SLIDE,
+            ["--no-features"],
+        ),
+        Row("expert-ee-square-grasp", "expert", GRASP, {**SQUARE, **EE}),
+        Row(
+            "bc-ee-square-grasp",
+            "bc",
+            GRASP,
+            {**SQUARE, **EE},
+            "slide-gym/square-grasp-ee-v1",
+            SQUARE_SLIDE,
+        ),
+        Row(
+            "dp-ee-square-grasp",
+            "dp",
+            GRASP,
+            {**SQUARE, **EE},
+            "slide-gym/square-grasp-ee-v1",
+            SQUARE_SLIDE,
+        ),
     ]
 }
 
@@ -120,6 +165,8 @@ def command(row: Row, models: Path) -> str:
     """The ``slide-gym`` commands that make the row (what the table cites)."""
     out = models / row.name
     scene = f"--object {row.scene['object']} --table {row.scene['table']}"
+    if "control_mode" in row.scene:
+        scene += f" --control-mode {row.scene['control_mode']}"
     test = f"--episodes {EPISODES} --seed {TEST_SEED}"
     if row.method in ("random", "expert"):
         agent = "regions" if row.method == "expert" else "random"
@@ -132,7 +179,7 @@ def command(row: Row, models: Path) -> str:
     )
     if row.method == "bc":
         train = f"slide-gym train-bc {row.dataset} --out {out}.zip --steps 5000"
-        return f"{collect}; {train}; slide-gym evaluate {out}.zip --env {row.env_id} {test}"
+        return f"{collect}; {train}; slide-gym evaluate {out}.zip --env {row.env_id} {scene} {test}"
     if row.method == "dp-dagger":
         base = models / str(row.base)
         train = (
@@ -141,7 +188,7 @@ def command(row: Row, models: Path) -> str:
         )
         return f"{train}; slide-gym evaluate {out}/round-1/policy --env {row.env_id} {test}"
     train = f"slide-gym train-dp {row.dataset} --out {out} {' '.join(row.train)}".rstrip()
-    return f"{collect}; {train}; slide-gym evaluate {out} --env {row.env_id} {test}"
+    return f"{collect}; {train}; slide-gym evaluate {out} --env {row.env_id} {scene} {test}"
 
 
 def _collect(row: Row) -> None:
@@ -282,10 +329,12 @@ def report(out: Path) -> Path:
         iters = (t.get("checkpoint") or {}).get("iteration") or t.get("steps")
         train = f"{seconds / 60:.0f} min, {iters} it" if seconds else "-"
         lo, hi = r["ci95"]
+        mode = ", fingertip steps" if r["scene"].get("control_mode") == "ee_delta" else ""
         lines.append(
             f"| {name} | {r['env_id'].split('/')[1]} | {r['scene']['object']} on "
-            f"{r['scene']['table']} | {n_demo} | {train} | **{100 * r['success_rate']:.0f} %** "
-            f"({100 * lo:.0f}-{100 * hi:.0f}) | {r['mean_length']:.0f} |"
+            f"{r['scene']['table']}{mode} | {n_demo} | {train} | "
+            f"**{100 * r['success_rate']:.0f} %** ({100 * lo:.0f}-{100 * hi:.0f}) | "
+            f"{r['mean_length']:.0f} |"
         )
     lines += ["", "Commands (code version per row):", ""]
     lines += [f"- `{r['row']}` ({r['code_version']}): `{r['command']}`" for r in rows.values()]

@@ -122,7 +122,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     from agents.evaluate import evaluate
 
     env_kwargs: dict[str, Any] = {}
-    for name in ("object", "table"):
+    for name in ("object", "table", "control_mode"):
         if getattr(args, name) is not None:
             env_kwargs[name] = getattr(args, name)
     result = evaluate(
@@ -295,6 +295,11 @@ def add_parsers(sub: Any) -> None:
         "--object", metavar="NAME", help="env object (default: the model's, else the env's)"
     )
     p.add_argument("--table", metavar="NAME", help="env table (as --object)")
+    p.add_argument(
+        "--control-mode",
+        choices=("joint_delta", "ee_delta"),
+        help="env control mode (default: the model's, else joint_delta)",
+    )
     p.add_argument(
         "--time-budget", type=float, default=10.0, metavar="S", help="planner agents' budget"
     )

@@ -156,6 +156,7 @@ ROWS = {
             {**SQUARE, **EE},
             "slide-gym/square-grasp-ee-v1",
             SQUARE_SLIDE,
+            ["--iterations", "15000"],
         ),
     ]
 }
@@ -291,8 +292,12 @@ def run(row: Row, models: Path, out: Path) -> dict[str, Any]:
 
 
 def _unfinished(path: Path) -> bool:
+    """True if the run in ``path`` has not reached its last iteration (its progress rows)."""
+    from agents.learned.train import read_progress
+
     card = json.loads((path / "policy.json").read_text())
-    return card["checkpoint"]["iteration"] < card["training"]["iterations"]
+    rows = read_progress(path / "progress.csv")
+    return not rows or int(rows[-1]["iteration"]) < card["training"]["iterations"]
 
 
 def latest_rows(out: Path) -> dict[str, dict[str, Any]]:

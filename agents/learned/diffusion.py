@@ -104,6 +104,18 @@ def squared_cosine_alpha_bar(steps: int, s: float = 0.008) -> torch.Tensor:
     return torch.cumprod(1.0 - betas, dim=0)
 
 
+def ddim_times(train_steps: int, steps: int) -> list[int]:
+    """The diffusion steps DDIM visits, largest first, spaced ``train_steps // steps`` apart
+    from 0 ("leading" spacing, diffusers' default): 90, 80, ..., 0 for 10 of 100.
+
+    Starting at the last training step instead (99) is much worse with a squared-cosine
+    schedule: there the signal fraction is about 2e-7, the first clean estimate is noise
+    amplified some 2000 times and clipped, and deterministic DDIM never recovers from it
+    (on the square-slide demonstrations the chunk error rose from 0.19 to 0.84)."""
+    stride = max(1, train_steps // steps)
+    return list(range(0, stride * steps, stride))[::-1]
+
+
 class DiffusionModel(nn.Module):
     """The U-Net, the normalisation statistics and the schedule of one policy."""
 
@@ -184,14 +196,13 @@ class DiffusionModel(nn.Module):
     ) -> torch.Tensor:
         """(B, pred_horizon, action_dim) raw actions for ``obs`` (B, obs_horizon, input_dim),
         by deterministic DDIM (eta 0) over ``steps`` (default ``config.inference_steps``)
-        evenly spaced diffusion steps; the clean estimate is clipped to the dataset's range
-        each step."""
+        diffusion steps (:func:`ddim_times`); the clean estimate is clipped to the dataset's
+        range each step."""
         steps = self.config.inference_steps if steps is None else int(steps)
         cond = self.encoder(self.normalize_obs(obs).flatten(1))
         n = len(cond)
         x = torch.randn((n, self.config.pred_horizon, self.action_dim), generator=generator)
-        total = self.config.train_steps
-        times = torch.linspace(total - 1, 0, steps).round().long().tolist()
+        times = ddim_times(self.config.train_steps, steps)
         for i, t in enumerate(times):
             ab = self.alpha_bar[t]
             eps = self.net(x, torch.full((n,), t, dtype=torch.long), cond)

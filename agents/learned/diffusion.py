@@ -110,8 +110,7 @@ def ddim_times(train_steps: int, steps: int) -> list[int]:
 
     Starting at the last training step instead (99) is much worse with a squared-cosine
     schedule: there the signal fraction is about 2e-7, the first clean estimate is noise
-    amplified some 2000 times and clipped, and deterministic DDIM never recovers from it
-    (on the square-slide demonstrations the chunk error rose from 0.19 to 0.84)."""
+    amplified some 2000 times and clipped, and deterministic DDIM never recovers from it."""
     stride = max(1, train_steps // steps)
     return list(range(0, stride * steps, stride))[::-1]
 

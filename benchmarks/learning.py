@@ -277,7 +277,7 @@ def run(row: Row, models: Path, out: Path) -> dict[str, Any]:
         "test_seeds": [TEST_SEED, TEST_SEED + EPISODES - 1],
         "eval_wall_s": result["wall_time_s"],
         "wall_s": time.perf_counter() - start,
-        "command": command(row, models),
+        "command": command(row, Path("models")),  # as `run --models models` writes it
         "code_version": code_version(),
     }
     out.mkdir(parents=True, exist_ok=True)
@@ -289,57 +289,6 @@ def run(row: Row, models: Path, out: Path) -> dict[str, Any]:
             (out / "curves").mkdir(exist_ok=True)
             shutil.copy(curve, out / "curves" / f"{row.name}.csv")
     return record
-
-
-def revalidate(path: Path, episodes: int = 20) -> dict[str, Any]:
-    """Choose again, on validation seeds with the current sampler, between a run's chosen
-    ``policy.pt`` and the final EMA weights of its ``checkpoint.pt``; keep the better in
-    ``policy.pt`` (ties: the final weights) and record both in ``policy.json``.
-
-    For runs whose in-training validation used DDIM from step 99 (before
-    :func:`agents.learned.diffusion.ddim_times`): it chose checkpoints with a broken
-    sampler."""
-    import torch
-
-    from agents.evaluate import VALIDATION_SEED, evaluate
-    from agents.learned.policy import DiffusionPolicy, load_model, save_policy
-
-    card = json.loads((path / "policy.json").read_text())
-    blob = torch.load(path / "checkpoint.pt", map_location="cpu", weights_only=False)
-    final = load_model(path / "policy.pt")
-    final.load_state_dict(blob["ema"]["model"])
-    chosen = load_model(path / "policy.pt")
-    results = {}
-    for name, model in (("chosen", chosen), ("final", final)):
-        policy = DiffusionPolicy(model, seed=card["training"]["seed"], card=card)
-        results[name] = evaluate(
-            policy,
-            card["env_id"],
-            episodes=episodes,
-            seed=VALIDATION_SEED,
-            env_kwargs=card["env_kwargs"],
-        )
-    best = "final" if results["final"]["successes"] >= results["chosen"]["successes"] else "chosen"
-    iteration = blob["iteration"] if best == "final" else card["checkpoint"]["iteration"]
-    card["checkpoint"] = {
-        "iteration": iteration,
-        "train_time_s": round(blob["train_time_s"], 1)
-        if best == "final"
-        else card["checkpoint"]["train_time_s"],
-        "success_rate": results[best]["success_rate"],
-        "ci95": results[best]["ci95"],
-        "episodes": episodes,
-        "seeds": [VALIDATION_SEED, VALIDATION_SEED + episodes - 1],
-        "revalidated": {
-            k: {
-                "iteration": blob["iteration"] if k == "final" else card["checkpoint"]["iteration"],
-                "successes": r["successes"],
-            }
-            for k, r in results.items()
-        },
-    }
-    save_policy(final if best == "final" else chosen, path, card)
-    return card["checkpoint"]
 
 
 def _unfinished(path: Path) -> bool:
@@ -474,17 +423,12 @@ def main() -> int:
     p = sub.add_parser("fit", help="a policy's action error on its training windows")
     p.add_argument("policies", nargs="+", type=Path, metavar="DIR")
     p.add_argument("--dataset", required=True, metavar="ID")
-    p = sub.add_parser("revalidate", help="choose a run's checkpoint again (see revalidate)")
-    p.add_argument("runs", nargs="+", type=Path, metavar="DIR")
     p = sub.add_parser("report", help="learning.md and learning_curves.png from the rows")
     p.add_argument("--out", type=Path, default=OUT)
     args = parser.parse_args()
     if args.cmd == "list":
         for row in ROWS.values():
             print(f"{row.name}: {command(row, Path('models'))}")
-    elif args.cmd == "revalidate":
-        for path in args.runs:
-            print(json.dumps({"run": str(path), **revalidate(path)}))
     elif args.cmd == "fit":
         for path in args.policies:
             print(json.dumps(fit(path, args.dataset)))

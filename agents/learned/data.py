@@ -3,8 +3,9 @@
 :func:`load_demonstrations` reads a Minari dataset's episodes (by default only those the
 expert solved) into policy inputs and action labels; :class:`ChunkSampler` draws windows of
 ``obs_horizon`` inputs and ``pred_horizon`` actions from them. A window may start before an
-episode (the first input and action repeat) or run past its end (padded with zero arm
-motion and the last hand command: after the expert is done, the arm holds still).
+episode (the first input repeats; the steps before it are no arm motion and the first hand
+command) or run past its end (zero arm motion and the last hand command: after the expert
+is done, the arm holds still).
 
 Where an episode carries expert labels (``infos["expert_action"]``, written by a DART or
 DAgger collection), those are the targets; the executed ``actions`` are only what moved the

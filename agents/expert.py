@@ -269,15 +269,7 @@ class SlideGraspExpert:
             return False
         rng = np.random.default_rng(np.random.SeedSequence([self.seed, 7]))
         self.planner = TopSlidePlanner(problem, self.planner_name, rng)
-        t0 = time.perf_counter()
-        ok, info = self.planner.reaim_grasp(
-            pose,
-            self.q_cmd,
-            self.params.grasp_u_star,
-            max_iterations=self.params.grasp_iterations,
-            time_budget=max(self._budget_left(), 1e-3),
-        )
-        self.report.planning_time_s += time.perf_counter() - t0
+        ok, info = self._reaim(pose, max(self._budget_left(), 1e-3))
         if not ok:
             self.report.events.append(f"no grasp from here ({info.get('reason')}): planning")
             return False
@@ -466,16 +458,7 @@ class SlideGraspExpert:
             budget = self._budget_left()
             if budget <= 0.0:
                 return self._fail("planning budget used up before re-aiming the grasp")
-            t0 = time.perf_counter()
-            ok, info = self.planner.reaim_grasp(
-                actual,
-                self.q_cmd,
-                self.params.grasp_u_star,
-                max_iterations=self.params.grasp_iterations,
-                time_budget=budget,
-                grasp_seed=self.result.extra.get("grasp_config"),
-            )
-            self.report.planning_time_s += time.perf_counter() - t0
+            ok, info = self._reaim(actual, budget, self.result.extra.get("grasp_config"))
             if info.get("timeout"):
                 return self._fail("planning budget used up while re-aiming the grasp")
         self.report.events.append(
@@ -488,6 +471,24 @@ class SlideGraspExpert:
             return self._fail(f"not graspable after the slide ({info.get('reason')})")
         self.report.replans += 1
         self._plan(obs)
+
+    def _reaim(
+        self, pose: np.ndarray, budget: float, grasp_seed: np.ndarray | None = None
+    ) -> tuple[bool, dict]:
+        """:meth:`TopSlidePlanner.reaim_grasp` at the plate's ``pose`` from the commanded arm,
+        its time counted as planning."""
+        assert self.planner is not None and self.q_cmd is not None
+        t0 = time.perf_counter()
+        ok, info = self.planner.reaim_grasp(
+            pose,
+            self.q_cmd,
+            self.params.grasp_u_star,
+            max_iterations=self.params.grasp_iterations,
+            time_budget=budget,
+            grasp_seed=grasp_seed,
+        )
+        self.report.planning_time_s += time.perf_counter() - t0
+        return ok, info
 
     def _queue_grasp(self, transfer: np.ndarray) -> None:
         p = self.params

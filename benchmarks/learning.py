@@ -140,6 +140,16 @@ ROWS = {
             SQUARE_SLIDE,
             ["--no-features"],
         ),
+        Row(
+            "dp-dagger-ee-square-slide",
+            "dp-dagger",
+            SLIDE,
+            {**SQUARE, **EE},
+            "slide-gym/square-slide-ee-dagger-v1",
+            {},
+            ["--rounds", "1", "--episodes", "16", "--workers", "2"],
+            base="dp-ee-square-slide",
+        ),
         Row("expert-ee-square-grasp", "expert", GRASP, {**SQUARE, **EE}),
         Row(
             "bc-ee-square-grasp",

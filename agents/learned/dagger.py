@@ -180,8 +180,7 @@ def rollout_case(case: dict[str, Any]) -> dict[str, Any]:
         record=record,
     )
     return {
-        **{k: v for k, v in record.items() if k != "steps"},
-        "steps": len(actions),
+        **record,
         "payload": episode.to_bytes(),
     }
 

@@ -90,7 +90,6 @@ class ConditionalUnet1D(nn.Module):
     ) -> None:
         super().__init__()
         channels = list(channels)
-        self.levels = len(channels)
         self.step_embed = nn.Sequential(
             SinusoidalStepEmbedding(step_embed_dim),
             nn.Linear(step_embed_dim, 4 * step_embed_dim),

@@ -132,6 +132,32 @@ ROWS = {
             SQUARE_SLIDE,
         ),
         Row(
+            "dp-ee-square-slide-deltas",
+            "dp",
+            SLIDE,
+            {**SQUARE, **EE},
+            "slide-gym/square-slide-ee-v1",
+            SQUARE_SLIDE,
+            ["--actions", "deltas", "--scaling", "standard"],
+        ),
+        Row(
+            "dp-dart-ee-square-slide",
+            "dp-dart",
+            SLIDE,
+            {**SQUARE, **EE},
+            "slide-gym/square-slide-ee-dart-v1",
+            {**SQUARE_SLIDE, "action_noise": 0.1},
+        ),
+        Row("expert-ee-catalog-slide", "expert", SLIDE, {**CATALOG, **EE}),
+        Row(
+            "dp-ee-catalog-slide",
+            "dp",
+            SLIDE,
+            {**CATALOG, **EE},
+            "slide-gym/catalog-slide-ee-v1",
+            {"episodes": 400, "only_success": True},
+        ),
+        Row(
             "dp-ee-square-slide-nofeat",
             "dp",
             SLIDE,
@@ -167,6 +193,15 @@ ROWS = {
             "slide-gym/square-grasp-ee-v1",
             SQUARE_SLIDE,
             ["--iterations", "15000"],
+        ),
+        Row(
+            "dp-ee-square-grasp-deltas",
+            "dp",
+            GRASP,
+            {**SQUARE, **EE},
+            "slide-gym/square-grasp-ee-v1",
+            SQUARE_SLIDE,
+            ["--actions", "deltas", "--scaling", "standard", "--val-episodes", "10"],
         ),
     ]
 }

@@ -4,7 +4,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 export OMP_NUM_THREADS ?= 1
 
-.PHONY: install demo test lint bench clean
+.PHONY: install demo readme-gif test lint bench clean
 
 $(VENV)/.installed: pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -18,8 +18,18 @@ $(VENV)/.installed: pyproject.toml
 
 install: $(VENV)/.installed
 
+# One expert episode; the GIF goes to runs/ (ignored by git), so the clone stays clean. The
+# planners stop on iteration caps, not the clock: a budget far above their need makes the
+# episode the same on a slow or busy machine.
 demo: $(VENV)/.installed
-	$(VENV)/bin/slide-gym run --object E --table square --seed 0 --video docs/expert.gif --json
+	mkdir -p runs
+	$(VENV)/bin/slide-gym run --object E --table square --seed 0 --time-budget 60 \
+		--video runs/demo.gif --json
+
+# The README's GIF: the same episode, rewritten in place; commit it with the code it shows.
+readme-gif: $(VENV)/.installed
+	$(VENV)/bin/slide-gym run --object E --table square --seed 0 --time-budget 60 \
+		--video docs/expert.gif --json
 
 test: $(VENV)/.installed
 	$(PY) -m ruff check .

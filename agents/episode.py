@@ -11,14 +11,18 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from gymnasium.utils import seeding as gym_seeding
 
 from agents.params import ExpertParams
 from agents.planner_agent import PlannerAgent
 from agents.record import EpisodeRecord
 from slide_gym import DICT_ENV_IDS, EXPERT_ENV_ID
-from slide_gym.geometry import ObjectShape, TableShape, get_table
+from slide_gym.envs.scene import SceneChoice
+from slide_gym.geometry import ObjectShape, TableShape
 from slide_gym.planning.result import check_time_budget
-from slide_gym.task import scene_object
+from slide_gym.task import TaskParams
+
+START_MARGIN = TaskParams.start_margin
 
 ENV_ID = EXPERT_ENV_ID
 VIDEO_SUFFIXES = (".mp4", ".gif")
@@ -44,10 +48,11 @@ def run_episode(
 ) -> EpisodeRecord:
     """Run the planner agent for one seeded episode; success is the env's ``is_success``.
 
-    ``object`` may be ``"procedural"`` (the plate of ``seed``); ``thickness`` (m) overrides the
-    object's. ``env_id``: one of :data:`slide_gym.DICT_ENV_IDS`; the slide envs end
-    when the plate is left graspable. ``object_pose``: ``(x, y, yaw)`` instead of the seed's.
-    ``control_mode``: the env's and the agent's (``"joint_delta"`` or ``"ee_delta"``).
+    ``object`` and ``table`` are what the env takes: also ``"random"`` (a catalog shape drawn
+    from ``seed``) and, for objects, ``"procedural"`` (the plate of ``seed``); ``thickness``
+    (m) overrides the object's. ``env_id``: one of :data:`slide_gym.DICT_ENV_IDS`; the slide
+    envs end when the plate is left graspable. ``object_pose``: ``(x, y, yaw)`` instead of the
+    seed's. ``control_mode``: the env's and the agent's (``"joint_delta"`` or ``"ee_delta"``).
 
     ``params`` (execution) and ``planner_params`` (:class:`~slide_gym.planning.SlideParams`
     overrides) go to :class:`~agents.planner_agent.PlannerAgent`.
@@ -64,12 +69,15 @@ def run_episode(
             raise ValueError(
                 f"video: folder {str(Path(video).parent)!r} does not exist (for {str(video)!r})"
             )
-    table_shape = get_table(table)
-    shape = scene_object(object, table_shape, seed=seed, scale=scale, thickness=thickness)
+    # The env draws the scene from the seed; the same draw here tells the agent what it is.
+    choice = SceneChoice(object, table, scale, thickness)
+    shape, table_shape = choice.draw(gym_seeding.np_random(int(seed))[0], int(seed), START_MARGIN)
     env = gym.make(
         env_id,
-        object=shape,
-        table=table_shape,
+        object=object,
+        table=table,
+        scale=scale,
+        thickness=thickness,
         render_mode="rgb_array" if video else None,
         control_mode=control_mode,
     )
@@ -93,7 +101,6 @@ def run_episode(
     finally:
         agent.close()
         env.close()
-    record.scale = float(scale)  # the env got the scaled shape itself
     if video:
         write_video(Path(video), frames, VIDEO_EVERY * dt)
         record.video = str(video)

@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import sys
 import time
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -20,14 +21,10 @@ from slide_gym import DICT_ENV_IDS
 from slide_gym.experiments.stats import wilson_interval
 from slide_gym.planning.api import PLANNERS
 from slide_gym.planning.result import check_time_budget
+from slide_gym.splits import TEST_SEED
 
 RANDOM = "random"
 """The agent name of uniform random actions."""
-TEST_SEED = 10_000
-"""First reset seed of the test episodes (collections start at 0)."""
-VALIDATION_SEED = 20_000
-"""First reset seed of the episodes that choose a learned policy's checkpoint: not a test
-seed, so the choice does not peek at the test."""
 
 
 def _is_int(value: Any) -> bool:
@@ -110,9 +107,10 @@ class RandomAgent:
 
 
 def _open_agent(agent: Any) -> tuple[str | None, Any, dict[str, Any]]:
-    """``(planner name or None, policy with predict or None, env_kwargs of its card)``."""
+    """``(planner name or None, policy with predict or None, its card)``: the card holds the
+    ``env_id`` and ``env_kwargs`` it was trained with (``{}`` for planners and ``random``)."""
     if hasattr(agent, "predict"):
-        return None, agent, dict(getattr(agent, "card", {}).get("env_kwargs", {}))
+        return None, agent, dict(getattr(agent, "card", {}))
     if agent == RANDOM:
         return None, RANDOM, {}
     if isinstance(agent, str) and agent in PLANNERS:
@@ -126,15 +124,14 @@ def _open_agent(agent: Any) -> tuple[str | None, Any, dict[str, Any]]:
                 "train one with `slide-gym train-dp DATASET_ID --out DIR`"
             )
         policy = DiffusionPolicy.load(agent)
-        card = json.loads((Path(agent) / CARD_FILE).read_text())
-        return None, policy, dict(card.get("env_kwargs", {}))
+        return None, policy, json.loads((Path(agent) / CARD_FILE).read_text())
     model_path = _model_file(agent)
     if model_path is None:
         raise ValueError(
             f"agent must be a planner ({', '.join(PLANNERS)}), {RANDOM!r}, a policy folder (from "
             f"train-dp) or an existing SB3 model .zip file, got {str(agent)!r}"
         )
-    return None, load_model(model_path), dict(read_model_card(model_path).get("env_kwargs", {}))
+    return None, load_model(model_path), read_model_card(model_path)
 
 
 def evaluate(
@@ -163,7 +160,8 @@ def evaluate(
         seed: the first reset seed (default :data:`TEST_SEED`: held out from collection seeds
             from 0 and from the validation seeds of training).
         env_kwargs: env arguments; for a saved policy, those of its card (``<model>.json`` or
-            ``policy.json``) are the defaults these override.
+            ``policy.json``) are the defaults these override. A policy whose card names
+            another env than ``env_id`` is evaluated in ``env_id`` with a warning.
         time_budget: the planner's seconds per episode (planners only).
         progress: print one line per episode to stderr.
         max_steps: stop an episode after this many steps and count it as a failure
@@ -182,10 +180,17 @@ def evaluate(
         raise ValueError(f"max_steps must be a positive integer or None, got {max_steps!r}")
     if env_id not in DICT_ENV_IDS:
         raise ValueError(f"env_id must be one of {', '.join(DICT_ENV_IDS)}, got {env_id!r}")
-    planner, model, kwargs = _open_agent(agent)
+    planner, model, card = _open_agent(agent)
     if planner:
         check_time_budget(time_budget)
-    kwargs.update(env_kwargs or {})
+    trained_in = card.get("env_id")
+    if trained_in is not None and trained_in != env_id:
+        warnings.warn(
+            f"the policy was trained in {trained_in}, not {env_id}: evaluating it in {env_id} "
+            "as asked",
+            stacklevel=2,
+        )
+    kwargs = {**dict(card.get("env_kwargs") or {}), **(env_kwargs or {})}
 
     env = gym.make(env_id, **kwargs)
     if model is RANDOM:

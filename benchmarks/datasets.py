@@ -87,6 +87,7 @@ def bc(args: argparse.Namespace) -> list[dict[str, Any]]:
     from agents.evaluate import evaluate
     from slide_gym.datasets.store import load
     from slide_gym.experiments.version import code_version
+    from slide_gym.splits import TEST_SEED
 
     path = args.out / "bc.json"
     done = json.loads(path.read_text()) if path.exists() else []
@@ -116,7 +117,7 @@ def bc(args: argparse.Namespace) -> list[dict[str, Any]]:
         env.close()
         kwargs = {"object": args.object, "table": args.table}
         write_model_card(model_path, env_id, kwargs, {"dataset_id": dataset_id, **stats})
-        seeds = {"episodes": args.eval_episodes, "seed": 10_000, "env_kwargs": kwargs}
+        seeds = {"episodes": args.eval_episodes, "seed": TEST_SEED, "env_kwargs": kwargs}
         clone = evaluate(model_path, env_id, **seeds)
         expert = evaluate("regions", env_id, **seeds)
         row = {
@@ -136,7 +137,7 @@ def bc(args: argparse.Namespace) -> list[dict[str, Any]]:
             "expert_success": expert["success_rate"],
             "expert_ci95": expert["ci95"],
             "eval_episodes": args.eval_episodes,
-            "eval_seeds": f"10000-{10_000 + args.eval_episodes - 1}",
+            "eval_seeds": f"{TEST_SEED}-{TEST_SEED + args.eval_episodes - 1}",
             "code_version": code_version(),
         }
         done.append(row)

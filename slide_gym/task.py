@@ -183,6 +183,8 @@ def seeded_start_pose(
 
 PROCEDURAL = "procedural"
 """The object name that draws a random plate per episode (:mod:`slide_gym.geometry.procedural`)."""
+RANDOM = "random"
+"""The object or table name that draws a catalog shape per episode."""
 
 
 def fit_procedural_object(

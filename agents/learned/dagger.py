@@ -38,10 +38,7 @@ from slide_gym.datasets.recording import (
     stack_infos,
     step_info,
 )
-
-DAGGER_SEED = 40_000
-"""First reset seed of DAgger's learner episodes (collections start at 0, tests at 10000,
-validation at 20000)."""
+from slide_gym.splits import DAGGER_SEED
 
 
 @dataclass(frozen=True)

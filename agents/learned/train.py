@@ -11,7 +11,7 @@ validation on held-out seeds, resume.
   success (the latest if none validated), and its card;
 - ``learning_curve.png``: loss and validation success against iterations.
 
-Validation episodes use reset seeds from :data:`agents.evaluate.VALIDATION_SEED`, never the
+Validation episodes use reset seeds from :data:`slide_gym.splits.VALIDATION_SEED`, never the
 test seeds of ``slide-gym evaluate`` (from 10000), so choosing the checkpoint does not peek
 at the test. Ctrl-C finishes the iteration in progress, saves a checkpoint and raises
 ``KeyboardInterrupt``; ``resume=True`` continues from it, to the same weights as a run
@@ -37,6 +37,7 @@ import torch
 from agents.learned.data import ChunkSampler, load_demonstrations
 from agents.learned.diffusion import EMA, DiffusionConfig, DiffusionModel
 from agents.learned.policy import DiffusionPolicy, save_policy
+from slide_gym.splits import VALIDATION_SEED
 
 CHECKPOINT_FILE = "checkpoint.pt"
 PROGRESS_FILE = "progress.csv"
@@ -80,7 +81,7 @@ class TrainConfig:
     log_every: int = 500
     val_every: int = 5_000
     val_episodes: int = 20
-    val_seed: int = 20_000
+    val_seed: int = VALIDATION_SEED
 
     def __post_init__(self) -> None:
         for name in ("iterations", "batch_size", "log_every"):

@@ -101,7 +101,8 @@ def bench_execute(
     ``backend``, ``address``: where episodes run (:func:`slide_gym.bench.jobs.run_cases`).
     """
     from slide_gym import DICT_ENV_IDS
-    from slide_gym.geometry import get_object, get_table
+    from slide_gym.geometry import OBJECT_NAMES, get_object, get_table
+    from slide_gym.geometry.catalog import unknown_name
     from slide_gym.planning.result import check_time_budget
     from slide_gym.planning.search import PLANNERS
     from slide_gym.task import PROCEDURAL
@@ -116,6 +117,8 @@ def bench_execute(
     if not objects or not tables:
         raise ValueError("need at least one object and one table")
     for name in objects:
+        if name not in (*OBJECT_NAMES, PROCEDURAL) and not name.lower().endswith(".json"):
+            raise unknown_name("object", name, (*OBJECT_NAMES, PROCEDURAL))
         if name != PROCEDURAL:
             get_object(name, scale)
     for name in tables:

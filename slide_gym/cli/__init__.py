@@ -13,7 +13,7 @@ from collections.abc import Sequence
 
 from slide_gym import __version__
 from slide_gym.cli import bench, commands, data, experiment, learn
-from slide_gym.cli.args import HelpFormatter, check_seed, examples_epilog
+from slide_gym.cli.args import HelpFormatter, Parser, check_seed, examples_epilog
 
 EXAMPLES = (
     "slide-gym shapes",
@@ -25,7 +25,7 @@ EXAMPLES = (
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``slide-gym`` argument parser with every subcommand."""
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="slide-gym",
         description="Pre-grasp top-sliding of thin objects: tools.\nEvery command's --help "
         "lists its options with their units and defaults.",

@@ -3,12 +3,56 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
+import sys
 import textwrap
-from collections.abc import Callable, Sequence
+import warnings
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from slide_gym.geometry.catalog import unknown_name
 from slide_gym.geometry.shape_json import closest
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse's parser that names the closest option of a misspelt one (``--objct``:
+    "did you mean --object?"), in the usage error of the subcommand it was given to."""
+
+    def parse_args(  # type: ignore[override]
+        self, args: Sequence[str] | None = None, namespace: Any = None
+    ) -> Any:
+        parsed, extras = self.parse_known_args(args, namespace)
+        if extras:
+            leaf = _subcommand(self, parsed)
+            leaf.error(f"unrecognized arguments: {' '.join(extras)}{_option_hint(leaf, extras)}")
+        return parsed
+
+
+def _subcommand(parser: argparse.ArgumentParser, args: Any) -> argparse.ArgumentParser:
+    """The innermost (sub)parser that ``args`` went through."""
+    for action in parser._actions:  # noqa: SLF001 - argparse keeps its actions here
+        if isinstance(action, argparse._SubParsersAction):  # noqa: SLF001
+            name = getattr(args, action.dest, None)
+            if name in action.choices:
+                return _subcommand(action.choices[name], args)
+    return parser
+
+
+def _option_hint(parser: argparse.ArgumentParser, extras: Sequence[str]) -> str:
+    """``"; did you mean --object?"`` for the unknown options in ``extras`` near a known one."""
+    options = [s for a in parser._actions for s in a.option_strings]  # noqa: SLF001
+    pairs = []
+    for word in extras:
+        flag = word.split("=", 1)[0]
+        near = closest(flag, options) if flag.startswith("-") else None
+        if near is not None:
+            pairs.append((flag, near))
+    if not pairs:
+        return ""
+    if len(pairs) == 1:
+        return f"; did you mean {pairs[0][1]}?"
+    return "; did you mean " + ", ".join(f"{near} for {flag}" for flag, near in pairs) + "?"
 
 
 class HelpFormatter(argparse.RawDescriptionHelpFormatter, argparse.ArgumentDefaultsHelpFormatter):
@@ -52,22 +96,21 @@ def check_name(spec: str, kind: str, names: Sequence[str], extra: Sequence[str] 
     Checked before any work, so a typo never waits for an episode to start."""
     if spec in names or spec in extra or spec.lower().endswith(".json"):
         return spec
-    choices = (*names, *extra)
-    near = closest(spec, choices)
-    hint = f"did you mean {near!r}? " if near is not None else ""
-    raise ValueError(
-        f"unknown {kind} {spec!r}; {hint}valid names: {', '.join(choices)} "
-        "(or a path to a .json file)"
-    )
+    raise unknown_name(kind, spec, (*names, *extra))
 
 
-def choice(choices: Sequence[str], what: str) -> Callable[[str], str]:
+def choice(
+    choices: Sequence[str], what: str, refused: Mapping[str, str] | None = None
+) -> Callable[[str], str]:
     """An argparse ``type`` that accepts one of ``choices`` and otherwise names the closest
-    (use with ``choices=``, which lists them in the help)."""
+    (use with ``choices=``, which lists them in the help); a name in ``refused`` gets its
+    message there instead (a known name the command cannot take, and why)."""
 
     def parse(text: str) -> str:
         if text in choices:
             return text
+        if refused and text in refused:
+            raise argparse.ArgumentTypeError(refused[text])
         near = closest(text, choices)
         hint = f"did you mean {near!r}? " if near is not None else ""
         raise argparse.ArgumentTypeError(
@@ -86,12 +129,41 @@ def add_choice(
     help: str,  # noqa: A002 - argparse's name
     default: str | None = None,
     metavar: str | None = None,
+    refused: Mapping[str, str] | None = None,
 ) -> None:
     """An option (or positional) taking one of ``choices``, with :func:`choice`'s hint."""
     kwargs = {"default": default} if flag.startswith("-") else {}
-    p.add_argument(
-        flag, type=choice(choices, what), choices=choices, metavar=metavar, help=help, **kwargs
-    )
+    kind = choice(choices, what, refused)
+    p.add_argument(flag, type=kind, choices=choices, metavar=metavar, help=help, **kwargs)
+
+
+def add_env(p: argparse.ArgumentParser, command: str, help: str, default: str) -> None:  # noqa: A002
+    """``--env ID``: one of the envs with the state ``Dict`` observation; a registered env
+    the command cannot drive (the goal env) is named as such, not mistaken for a typo."""
+    from slide_gym import DICT_ENV_IDS, ENV_IDS
+
+    drives = ", ".join(DICT_ENV_IDS)
+    refused = {
+        env: f"slide-gym {command} cannot drive {env}: its observation is not the state Dict "
+        f"that the expert and the policies read (it is the goal-conditioned slide, for HER); "
+        f"it drives {drives}"
+        for env in ENV_IDS
+        if env not in DICT_ENV_IDS
+    }
+    add_choice(p, "--env", DICT_ENV_IDS, "env", help, default, "ID", refused)
+
+
+@contextlib.contextmanager
+def one_line_warnings(command: str) -> Iterator[None]:
+    """Within: each warning prints as one line ``slide-gym COMMAND: warning: ...`` on stderr
+    (not Python's two lines with a file name)."""
+
+    def show(message: Any, *args: Any, **kwargs: Any) -> None:
+        print(f"slide-gym {command}: warning: {' '.join(str(message).split())}", file=sys.stderr)
+
+    with warnings.catch_warnings():
+        warnings.showwarning = show
+        yield
 
 
 def add_backend(p: argparse.ArgumentParser) -> None:

@@ -13,6 +13,7 @@ from slide_gym.cli.args import (
     add_backend,
     add_choice,
     add_command,
+    add_env,
     examples_epilog,
     parse_floats,
     parse_names,
@@ -248,7 +249,7 @@ def _add_execute(what: Any) -> None:
         f"environment, one of {', '.join(DICT_ENV_IDS)} (TopSlide-v0: the slide alone, "
         "success = left graspable)"
     )
-    add_choice(p, "--env", DICT_ENV_IDS, "environment", env_help, execute.ENV_ID, "ID")
+    add_env(p, "bench execute", env_help, execute.ENV_ID)
     _add_jobs(p, execute.OUT, "first episode seed (trial k uses SEED + k)")
     p.add_argument("--markdown", action="store_true", help="print markdown tables (default: JSON)")
     p.set_defaults(func=_cmd_bench_execute)

@@ -13,6 +13,7 @@ from slide_gym import DICT_ENV_IDS, EXPERT_ENV_ID
 from slide_gym.cli.args import (
     add_choice,
     add_command,
+    add_env,
     check_name,
     check_output,
     parse_floats,
@@ -20,7 +21,7 @@ from slide_gym.cli.args import (
 from slide_gym.cli.text import demo_text, plan_text, run_text
 from slide_gym.geometry import OBJECT_NAMES, TABLE_NAMES
 from slide_gym.planning.search import PLANNERS, REFERENCE_PLANNERS
-from slide_gym.task import PROCEDURAL
+from slide_gym.task import PROCEDURAL, RANDOM
 
 if TYPE_CHECKING:  # agents builds on slide_gym: imported on use only
     from agents.record import EpisodeRecord
@@ -29,12 +30,11 @@ IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg")
 """What ``render --out`` writes."""
 VIDEO_SUFFIXES = (".gif", ".mp4")
 """What ``demo --out`` and ``run --video`` write."""
-RANDOM = "random"
-"""The environment's name for a catalog shape drawn per episode (``render`` and ``demo``)."""
 ENV_SCENE = ((RANDOM, PROCEDURAL), (RANDOM,))
-"""Extra object and table names of the commands that build the environment from names."""
+"""Extra object and table names of the commands that build the environment from names
+(``render``, ``demo``, ``run``: ``random`` draws a catalog shape from the seed)."""
 PLAN_SCENE = ((PROCEDURAL,), ())
-"""Extra object and table names of ``plan`` and ``run`` (one fixed scene)."""
+"""Extra object and table names of ``plan`` (one fixed scene)."""
 
 
 def _check_scene(args: argparse.Namespace, extra: tuple[tuple[str, ...], ...]) -> None:
@@ -149,7 +149,7 @@ def _object_pose(p: argparse.ArgumentParser) -> None:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    _check_scene(args, PLAN_SCENE)
+    _check_scene(args, ENV_SCENE)
     if args.video is not None:
         check_output(args.video, VIDEO_SUFFIXES, "--video")
     pose = parse_floats(args.object_pose, 3, "--object-pose") if args.object_pose else None
@@ -311,13 +311,12 @@ def add_parsers(sub: Any) -> None:
             "slide-gym run --object procedural --seed 7 --json",
         ],
     )
-    _scene_args(p, PLAN_SCENE, "episode seed: the start pose (and the procedural plate)")
+    _scene_args(p, ENV_SCENE, "episode seed: the start pose (and the random or procedural draws)")
     _scale(p)
     _thickness(p)
     _object_pose(p)
     _planning(p, "per query")
     p.add_argument("--video", type=Path, metavar="FILE", help="also write an MP4 or GIF here")
-    env_help = f"environment, one of {', '.join(DICT_ENV_IDS)}"
-    add_choice(p, "--env", DICT_ENV_IDS, "environment", env_help, EXPERT_ENV_ID, "ID")
+    add_env(p, "run", f"environment, one of {', '.join(DICT_ENV_IDS)}", EXPERT_ENV_ID)
     _json_flag(p, "one JSON object, full precision")
     p.set_defaults(func=_cmd_run)

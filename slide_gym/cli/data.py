@@ -9,18 +9,56 @@ from pathlib import Path
 from typing import Any
 
 from slide_gym import DICT_ENV_IDS, EXPERT_ENV_ID
-from slide_gym.cli.args import add_backend, add_choice, add_command, check_output
+from slide_gym.cli.args import (
+    add_backend,
+    add_choice,
+    add_command,
+    add_env,
+    check_output,
+    one_line_warnings,
+)
 from slide_gym.planning.search import PLANNERS
+from slide_gym.splits import SPLIT_NAMES, SPLITS, TEST_SEED, TRAIN_SEED, VALIDATION_SEED
+
+
+def _split_scene(args: argparse.Namespace, command: str, default_seed: int) -> str | None:
+    """Apply ``--split``: its object and (unless given) its first seed; check the seeds.
+    Without it, ``--seed`` defaults to ``default_seed``. The object, or None if not given."""
+    if args.split is None:
+        args.seed = default_seed if args.seed is None else args.seed
+        return args.object
+    split = SPLITS[args.split]
+    if args.object is not None and args.object != split.object:
+        raise ValueError(
+            f"--split {split.name} sets the object ({split.object!r}); leave out --object "
+            f"{args.object}"
+        )
+    args.seed = split.first_seed(command, args.episodes, args.seed)
+    return split.object
+
+
+def _add_split(p: argparse.ArgumentParser, command: str) -> None:
+    names = "; ".join(f"{s.name}: {s.description}" for s in SPLITS.values())
+    add_choice(
+        p,
+        "--split",
+        SPLIT_NAMES,
+        "split",
+        f"a named split (slide_gym.splits): sets --object and the reset seeds {command} draws "
+        f"from (--seed: default the first of them, must stay within them). {names}",
+        metavar="NAME",
+    )
 
 
 def _cmd_collect(args: argparse.Namespace) -> int:
     from slide_gym.datasets.collect import collect
     from slide_gym.datasets.config import CollectConfig
 
+    obj = _split_scene(args, "collect", TRAIN_SEED)
     config = CollectConfig(
         env_id=args.env,
         agent=args.agent,
-        object=args.object,
+        object="square" if obj is None else obj,
         table=args.table,
         scale=args.scale,
         thickness=args.thickness,
@@ -30,6 +68,7 @@ def _cmd_collect(args: argparse.Namespace) -> int:
         seed=args.seed,
         only_success=args.only_success,
         action_noise=args.action_noise,
+        split=args.split,
     )
     summary = collect(
         config,
@@ -65,9 +104,10 @@ def _cmd_replay(args: argparse.Namespace) -> int:
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
-    from slide_gym.datasets.lerobot import export_lerobot
+    from slide_gym.datasets.lerobot import check_export_folder, export_lerobot
     from slide_gym.datasets.store import dataset_metadata, load
 
+    check_export_folder(args.out)
     dataset = load(args.dataset_id)
     meta = dataset_metadata(dataset)
     env = dataset.recover_environment()
@@ -121,19 +161,23 @@ def _cmd_train_bc(args: argparse.Namespace) -> int:
 def _cmd_evaluate(args: argparse.Namespace) -> int:
     from agents.evaluate import evaluate
 
+    args.object = _split_scene(args, "evaluate", TEST_SEED)
     env_kwargs: dict[str, Any] = {}
     for name in ("object", "table", "control_mode"):
         if getattr(args, name) is not None:
             env_kwargs[name] = getattr(args, name)
-    result = evaluate(
-        args.agent,
-        args.env,
-        episodes=args.episodes,
-        seed=args.seed,
-        env_kwargs=env_kwargs,
-        time_budget=args.time_budget,
-        progress=not args.json,
-    )
+    with one_line_warnings("evaluate"):
+        result = evaluate(
+            args.agent,
+            args.env,
+            episodes=args.episodes,
+            seed=args.seed,
+            env_kwargs=env_kwargs,
+            time_budget=args.time_budget,
+            progress=not args.json,
+        )
+    if args.split is not None:
+        result["split"] = args.split
     if args.json:
         print(json.dumps(result, indent=2))
     else:
@@ -169,7 +213,7 @@ def add_parsers(sub: Any) -> None:
             "--episodes 100 --only-success --workers 2 --dataset-id slide-gym/catalog-grasp-v0",
         ],
     )
-    add_choice(p, "--env", DICT_ENV_IDS, "env", f"one of {envs}", EXPERT_ENV_ID, "ID")
+    add_env(p, "collect", f"one of {envs}", EXPERT_ENV_ID)
     add_choice(p, "--agent", PLANNERS, "agent", "the expert's planner", "regions", "NAME")
     p.add_argument("--episodes", type=int, required=True, metavar="N", help="episodes to keep")
     p.add_argument(
@@ -177,9 +221,9 @@ def add_parsers(sub: Any) -> None:
     )
     p.add_argument(
         "--object",
-        default="square",
         metavar="NAME",
-        help="catalog name, .json file, random (a catalog object per episode) or procedural",
+        help="catalog name, .json file, random (a catalog object per episode) or procedural "
+        "(the plate of each seed) (default: square, or the --split's)",
     )
     p.add_argument(
         "--table", default="square", metavar="NAME", help="catalog name, .json file or random"
@@ -196,7 +240,10 @@ def add_parsers(sub: Any) -> None:
     p.add_argument(
         "--time-budget", type=float, default=10.0, metavar="S", help="planning s per episode"
     )
-    p.add_argument("--seed", type=int, default=0, metavar="N", help="first reset seed")
+    p.add_argument(
+        "--seed", type=int, metavar="N", help=f"first reset seed (default: {TRAIN_SEED})"
+    )
+    _add_split(p, "collect")
     p.add_argument("--workers", type=int, metavar="W", help="parallel episodes (default: cores)")
     add_backend(p)
     p.add_argument(
@@ -272,10 +319,11 @@ def add_parsers(sub: Any) -> None:
         sub,
         "evaluate",
         "success rate of a saved policy or a planner agent",
-        "Run episodes with reset seeds SEED, SEED+1, ... (default 10000: held out from "
-        "collections, which start at 0, and from the validation seeds of train-dp, from "
-        "20000) and print the success rate with a 95 % Wilson interval and the mean episode "
-        "length. AGENT is a saved SB3 model, a train-dp folder, 'random' or a planner.",
+        f"Run episodes with reset seeds SEED, SEED+1, ... (default {TEST_SEED}: held out from "
+        f"collections, which start at {TRAIN_SEED}, and from the validation seeds of train-dp, "
+        f"from {VALIDATION_SEED}; see slide_gym.splits) and print the success rate with a "
+        "95 % Wilson interval and the mean episode length. AGENT is a saved SB3 model, a "
+        "train-dp folder, 'random' or a planner.",
         [
             "slide-gym evaluate models/bc.zip --env SlideGym/TopSlide-v0 --episodes 20",
             "slide-gym evaluate models/dp-square --env SlideGym/TopSlide-v0 --episodes 100",
@@ -288,11 +336,14 @@ def add_parsers(sub: Any) -> None:
         help="a saved SB3 model (.zip), a train-dp policy folder, 'random', or a planner: "
         f"{', '.join(PLANNERS)}",
     )
-    add_choice(p, "--env", DICT_ENV_IDS, "env", f"one of {envs}", EXPERT_ENV_ID, "ID")
+    add_env(p, "evaluate", f"one of {envs}", EXPERT_ENV_ID)
     p.add_argument("--episodes", type=int, required=True, metavar="N", help="episodes")
-    p.add_argument("--seed", type=int, default=10_000, metavar="S", help="first reset seed")
+    p.add_argument("--seed", type=int, metavar="S", help=f"first reset seed (default: {TEST_SEED})")
+    _add_split(p, "evaluate")
     p.add_argument(
-        "--object", metavar="NAME", help="env object (default: the model's, else the env's)"
+        "--object",
+        metavar="NAME",
+        help="env object (default: the --split's, else the model's, else the env's)",
     )
     p.add_argument("--table", metavar="NAME", help="env table (as --object)")
     p.add_argument(

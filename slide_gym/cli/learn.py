@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from slide_gym.cli.args import add_backend, add_command
+from slide_gym.splits import DAGGER_SEED, TEST_SEED, VALIDATION_SEED
 
 
 def _cmd_train_dp(args: argparse.Namespace) -> int:
@@ -93,10 +94,10 @@ def add_parsers(sub: Any) -> None:
         "Train a 1-D U-Net diffusion policy (observation horizon 2, chunks of 16 actions, 8 "
         "executed) on the dataset's successful episodes, in the dataset's env. DIR gets "
         "checkpoint.pt (every --log-every iterations, and on Ctrl-C), progress.csv (loss; "
-        "success on validation seeds from 20000 every --val-every iterations), "
+        f"success on validation seeds from {VALIDATION_SEED} every --val-every iterations), "
         "learning_curve.png, and policy.pt/policy.json: the EMA weights of the checkpoint "
         "with the best validation success. `slide-gym evaluate DIR` tests it (seeds from "
-        "10000); --resume continues a run.",
+        f"{TEST_SEED}); --resume continues a run.",
         [
             "slide-gym train-dp slide-gym/square-slide-v1 --out models/dp-square",
             "slide-gym train-dp slide-gym/square-slide-v1 --out models/dp-square --resume",
@@ -153,7 +154,7 @@ def add_parsers(sub: Any) -> None:
         "dagger",
         "DAgger: the learner acts, the replanning expert labels its states, retrain",
         "Run R rounds of DAgger from a train-dp policy. Each round runs E learner episodes "
-        "(reset seeds from 40000); at every chunk boundary a fresh expert plans from the "
+        f"(reset seeds from {DAGGER_SEED}); at every chunk boundary a fresh expert plans from the "
         "state the learner reached and labels the chunk (a failed query is dropped and "
         "counted), and it executes a decaying share of the chunks (--beta, --decay). The "
         "episodes, with the labels in infos['expert_action'] and the round in their "

@@ -26,6 +26,7 @@ from slide_gym.bench.jobs import check_backend, load_results, run_cases
 from slide_gym.datasets.config import CollectConfig, check_dataset_id
 from slide_gym.datasets.recording import RecordedEpisode, record_episode
 from slide_gym.datasets.store import build_dataset, dataset_metadata, local_dataset_ids
+from slide_gym.splits import get_split
 
 MAX_TRIES_PER_EPISODE = 20
 """``only_success`` gives up after this many episodes per one asked for."""
@@ -72,6 +73,9 @@ def collect(
     if workers is not None and workers < 1:
         raise ValueError(f"--workers must be >= 1, got {workers}")
     check_backend(backend, address)
+    split = None if config.split is None else get_split(config.split)
+    if split is not None:  # every seed stays in the split's collect seeds
+        split.first_seed("collect", episodes, config.seed)
     stage = staging_dir(dataset_id)
     _claim(stage, config, dataset_id)
     progress = stage / "episodes.jsonl"
@@ -104,6 +108,8 @@ def collect(
     rows = run(range(start, start + episodes))
     if config.only_success:
         limit = start + MAX_TRIES_PER_EPISODE * episodes
+        if split is not None:
+            limit = min(limit, split.collect_seeds.stop)
         end = start + episodes
         while sum(r["success"] for r in rows) < episodes and end < limit:
             wins = sum(r["success"] for r in rows)

@@ -19,6 +19,7 @@ from slide_gym.envs.observation import OBS_MODES
 from slide_gym.envs.scene import SceneChoice
 from slide_gym.planning.api import PLANNERS
 from slide_gym.planning.result import check_time_budget
+from slide_gym.splits import get_split
 
 MAX_ACTION_NOISE = 1.0
 """Largest DART noise: one standard deviation spans half the action range."""
@@ -55,6 +56,8 @@ class CollectConfig:
             the hand command is left alone). The dataset's ``actions`` are the executed ones
             (an exact replay needs them) and ``infos["expert_action"]`` the expert's clean
             ones, the labels a learner trains on. 0: no noise, no labels.
+        split: the named split (:mod:`slide_gym.splits`) the episodes come from, or None;
+            then ``object`` is the split's and every seed stays in its collect seeds.
     """
 
     env_id: str
@@ -69,6 +72,7 @@ class CollectConfig:
     seed: int = 0
     only_success: bool = False
     action_noise: float = 0.0
+    split: str | None = None
 
     def __post_init__(self) -> None:
         if self.env_id not in DICT_ENV_IDS:
@@ -102,6 +106,13 @@ class CollectConfig:
             if isinstance(spec, str) and spec.lower().endswith(".json"):
                 object.__setattr__(self, kind, str(Path(spec).expanduser().resolve()))
         SceneChoice(self.object, self.table, self.scale, self.thickness)  # ValueError if bad
+        if self.split is not None:
+            split = get_split(self.split)
+            if self.object != split.object:
+                raise ValueError(
+                    f"split {split.name!r} collects object {split.object!r}, not {self.object!r}"
+                )
+            split.first_seed("collect", 1, self.seed)
 
     def env_kwargs(self) -> dict[str, Any]:
         """The keyword arguments of ``gym.make(env_id, ...)`` (JSON values only)."""
@@ -112,11 +123,12 @@ class CollectConfig:
         return kwargs
 
     def to_json(self) -> dict[str, Any]:
-        """The fields as JSON values; ``action_noise`` only when set, so that collections
-        made before the field existed keep their identity (and resume)."""
+        """The fields as JSON values; ``action_noise`` and ``split`` only when set, so that
+        collections made before those fields existed keep their identity (and resume)."""
         data = dataclasses.asdict(self)
-        if not data["action_noise"]:
-            del data["action_noise"]
+        for name in ("action_noise", "split"):
+            if not data[name]:
+                del data[name]
         return data
 
     @classmethod

@@ -25,7 +25,7 @@ import pyarrow.parquet as pq
 if TYPE_CHECKING:
     import minari
 
-__all__ = ["export_lerobot", "state_layout"]
+__all__ = ["check_export_folder", "export_lerobot", "state_layout"]
 
 CODEBASE_VERSION = "v3.0"
 CHUNKS_SIZE = 1000  # files per chunk folder, as LeRobot
@@ -176,8 +176,17 @@ class _DataWriter:
         self._close_file()
 
 
-def _check_out(out: Path) -> None:
-    """Refuse an output path that is a file or a non-empty folder."""
+def check_export_folder(out: Path) -> None:
+    """Refuse an output path that is a file, a non-empty folder or inside Minari's folder."""
+    import minari
+
+    root = Path(minari.storage.get_dataset_path()).resolve()
+    if out.resolve() == root or root in out.resolve().parents:
+        raise ValueError(
+            f"output folder {out} is inside the Minari datasets folder {root} "
+            "(MINARI_DATASETS_PATH, default ~/.minari/datasets), where Minari takes every "
+            "folder for a dataset; export to a folder outside it"
+        )
     if out.exists():
         if not out.is_dir():
             raise ValueError(f"output path {out} exists and is not a folder; pick a new folder")
@@ -230,7 +239,7 @@ def export_lerobot(
         raise ValueError(f"fps must be a positive finite number, got {fps!r}")
     if not isinstance(task, str) or not task.strip():
         raise ValueError("task must be a non-empty description string")
-    _check_out(out)
+    check_export_folder(out)
     n_episodes = int(dataset.total_episodes)
     if n_episodes == 0:
         raise ValueError("the dataset has no episodes; nothing to export")
@@ -268,7 +277,7 @@ def export_lerobot(
             fps=fps_value,
             robot_type=robot_type,
         )
-        _check_out(out)  # still free?
+        check_export_folder(out)  # still free?
         if out.exists():
             out.rmdir()
         tmp.rename(out)

@@ -22,10 +22,10 @@ from slide_gym.geometry import (
     get_object,
     get_table,
 )
+from slide_gym.geometry.catalog import unknown_name
 from slide_gym.geometry.shapes import check_thickness
-from slide_gym.task import PROCEDURAL, check_scene, fit_procedural_object
+from slide_gym.task import PROCEDURAL, RANDOM, check_scene, fit_procedural_object
 
-RANDOM = "random"
 RESET_OPTIONS = ("object", "table", "scale", "thickness", "object_pose", "arm_qpos")
 """Keys ``reset(options=...)`` accepts."""
 
@@ -81,14 +81,24 @@ class SceneChoice:
         return obj, table
 
 
+def scene_names(kind: str) -> tuple[str, ...]:
+    """Every name the env takes for ``kind`` (``"object"`` or ``"table"``): the catalog's,
+    ``"random"`` and, for objects, ``"procedural"``."""
+    if kind == "object":
+        return (*OBJECT_NAMES, RANDOM, PROCEDURAL)
+    return (*TABLE_NAMES, RANDOM)
+
+
 def _check(kind: str, spec: Any) -> None:
-    """ValueError unless ``spec`` is ``"random"``, ``"procedural"`` (objects) or a name, path
-    or shape that loads (the shapes themselves are loaded per episode, at the scale then)."""
-    names = OBJECT_NAMES if kind == "object" else TABLE_NAMES
+    """ValueError unless ``spec`` is one of :func:`scene_names` or a path or shape that loads
+    (the shapes themselves are loaded per episode, at the scale then)."""
+    names = scene_names(kind)
     if spec is None:
-        raise ValueError(f"{kind} must be one of {', '.join(names)}, 'random' or a .json path")
-    if isinstance(spec, str) and (spec == RANDOM or (kind, spec) == ("object", PROCEDURAL)):
-        return
+        raise ValueError(f"{kind} must be one of {', '.join(names)} or a .json path")
+    if isinstance(spec, str) and spec in names and spec in (RANDOM, PROCEDURAL):
+        return  # drawn per episode
+    if isinstance(spec, str) and spec not in names and not spec.lower().endswith(".json"):
+        raise unknown_name(kind, spec, names)
     get_object(spec) if kind == "object" else get_table(spec)
 
 

@@ -14,6 +14,7 @@ Tables (world frame: origin at the robot base, x toward the tables; top at z = 0
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -107,8 +108,9 @@ def _check_scale(scale: float) -> float:
     return float(scale)
 
 
-def _unknown(kind: str, spec: str, names: tuple[str, ...]) -> ValueError:
-    near = closest(spec, names)
+def unknown_name(kind: str, spec: str, names: Sequence[str]) -> ValueError:
+    """The error for an unknown ``kind`` name: the closest of ``names`` and all of them."""
+    near = closest(spec, tuple(names))
     hint = f"did you mean {near!r}? " if near is not None else ""
     return ValueError(
         f"unknown {kind} {spec!r}; {hint}valid names: {', '.join(names)} "
@@ -130,7 +132,7 @@ def get_object(spec: str | Path | ObjectShape, scale: float = 1.0) -> ObjectShap
     elif isinstance(spec, (str, Path)) and _is_path(spec):
         shape = load_object_json(spec)
     elif isinstance(spec, str):
-        raise _unknown("object", spec, OBJECT_NAMES)
+        raise unknown_name("object", spec, OBJECT_NAMES)
     else:
         raise ValueError(f"object spec must be a name, a .json path or an ObjectShape: {spec!r}")
     return shape.scaled(scale)
@@ -145,7 +147,7 @@ def get_table(spec: str | Path | TableShape) -> TableShape:
     if isinstance(spec, (str, Path)) and _is_path(spec):
         return load_table_json(spec)
     if isinstance(spec, str):
-        raise _unknown("table", spec, TABLE_NAMES)
+        raise unknown_name("table", spec, TABLE_NAMES)
     raise ValueError(f"table spec must be a name, a .json path or a TableShape: {spec!r}")
 
 

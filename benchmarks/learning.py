@@ -202,7 +202,16 @@ ROWS = {
             {**SQUARE, **EE},
             "slide-gym/square-grasp-ee-v1",
             SQUARE_SLIDE,
-            ["--actions", "deltas", "--scaling", "standard", "--val-episodes", "10"],
+            [
+                "--actions",
+                "deltas",
+                "--scaling",
+                "standard",
+                "--iterations",
+                "15000",
+                "--val-episodes",
+                "10",
+            ],
         ),
     ]
 }

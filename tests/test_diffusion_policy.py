@@ -17,10 +17,15 @@ import torch  # noqa: E402
 
 import slide_gym  # noqa: E402,F401 - registers the environments
 from agents.learned.data import ChunkSampler, chunk_to_actions, load_demonstrations  # noqa: E402
-from agents.learned.diffusion import DiffusionConfig  # noqa: E402
+from agents.learned.diffusion import DiffusionConfig, DiffusionModel  # noqa: E402
 from agents.learned.features import task_features  # noqa: E402
 from agents.learned.policy import DiffusionPolicy  # noqa: E402
-from agents.learned.train import TrainConfig, read_progress, train_diffusion  # noqa: E402
+from agents.learned.train import (  # noqa: E402
+    TrainConfig,
+    hand_kind,
+    read_progress,
+    train_diffusion,
+)
 from slide_gym.cli import main  # noqa: E402
 from slide_gym.datasets.recording import LABEL_KEY  # noqa: E402
 from slide_gym.datasets.store import load, read_episodes  # noqa: E402
@@ -203,6 +208,34 @@ def test_policy_predicts_single_batched_and_deterministically(trained):
     assert actions.shape == (3, 8)
     again, _ = DiffusionPolicy.load(trained, seed=1).predict(obs, episode_start=np.array([True]))
     np.testing.assert_array_equal(action, again)
+
+
+def test_a_binary_hand_keeps_its_scale_and_is_executed_as_open_or_closed(trained, monkeypatch):
+    labels = np.zeros((4, 8))
+    labels[:, -1] = [-1, -1, 1, np.nan]  # a dropped DAgger label does not count
+    assert hand_kind(labels) == "binary"
+    labels[0, -1] = 0.2
+    assert hand_kind(labels) == "continuous"
+    # closed in 1 step of 20: standardising would put a close at +4.4 sd; binary keeps +1
+    chunk = torch.full((16, 8), -1.0)
+    chunk_mean, chunk_std = chunk.clone(), torch.ones(16, 8)
+    chunk_mean[:, -1], chunk_std[:, -1] = -0.9, 0.436
+    for hand, close in (("continuous", 4.358), ("binary", 1.0)):
+        config = DiffusionConfig(channels=(16, 32), scaling="standard", hand=hand)
+        model = DiffusionModel(config, 3, 8)
+        model.set_stats(torch.zeros(3), torch.ones(3), chunk_mean, chunk_std, chunk, -chunk)
+        closed = model.normalize_action(torch.ones(1, 16, 8))[0, 0, -1]
+        assert float(closed) == pytest.approx(close, abs=1e-3)
+    policy = DiffusionPolicy.load(trained)
+    assert policy.config.hand == "binary"  # the expert's hand commands are -1 or +1
+    sampled = torch.full((1, 16, 8), 0.0)
+    sampled[0, :, -1] = torch.linspace(-0.9, 0.9, 16)
+    monkeypatch.setattr(policy.model, "sample", lambda *a: sampled)
+    env = gym.make(ENV_ID)
+    obs, _ = env.reset(seed=0)
+    env.close()
+    hands = [policy.predict(obs, episode_start=np.array([i == 0]))[0][-1] for i in range(8)]
+    assert set(hands) <= {-1.0, 1.0} and hands[0] == -1.0 and hands[-1] == 1.0
 
 
 def test_action_queue_runs_eight_steps_and_resets_at_episode_start(trained, monkeypatch):

@@ -45,6 +45,12 @@ class DiffusionConfig:
             unit variance as the noise schedule assumes; ``"minmax"``: scaled to [-1, 1] by
             the dataset's range (Chi et al., ManiSkill). Either way the sampler clips the
             clean estimate to the dataset's range.
+        hand: ``"binary"`` where every demonstrated hand command (the last action entry) is
+            open (-1) or closed (+1), as the expert's are: that entry keeps its own scale
+            (standardising a command that is closed in a few % of the steps puts a close
+            several standard deviations out) and the policy executes its sign;
+            ``"continuous"`` scales it like the arm's entries and executes it as sampled.
+            :func:`agents.learned.train.train_diffusion` sets it from the data.
     """
 
     obs_horizon: int = 2
@@ -58,6 +64,7 @@ class DiffusionConfig:
     actions: str = "deltas"
     scaling: str = "minmax"
     obs_embed: int = 0
+    hand: str = "continuous"
 
     def __post_init__(self) -> None:
         if (
@@ -83,6 +90,8 @@ class DiffusionConfig:
             )
         if self.scaling not in ("standard", "minmax"):
             raise ValueError(f"scaling must be 'standard' or 'minmax', got {self.scaling!r}")
+        if self.hand not in ("continuous", "binary"):
+            raise ValueError(f"hand must be 'continuous' or 'binary', got {self.hand!r}")
         if self.actions not in ("offsets", "deltas"):
             raise ValueError(f"actions must be 'offsets' or 'deltas', got {self.actions!r}")
         if not 1 <= self.inference_steps <= self.train_steps:
@@ -153,7 +162,7 @@ class DiffusionModel(nn.Module):
     ) -> None:
         """Standardise inputs with ``obs_mean``/``obs_std``; scale chunks (``(pred_horizon,
         action_dim)`` statistics) by ``config.scaling``; an entry with no spread keeps scale
-        1 (it becomes 0)."""
+        1 (it becomes 0), and a binary hand command keeps its own."""
         self.obs_mean.copy_(obs_mean)
         self.obs_std.copy_(obs_std)
         if self.config.scaling == "minmax":
@@ -161,6 +170,9 @@ class DiffusionModel(nn.Module):
         else:
             shift, scale = chunk_mean, chunk_std
         scale = torch.where(scale < 1e-6, torch.ones_like(scale), scale)
+        if self.config.hand == "binary":
+            shift, scale = shift.clone(), scale.clone()
+            shift[:, -1], scale[:, -1] = 0.0, 1.0
         self.action_shift.copy_(shift)
         self.action_scale.copy_(scale)
         self.clip_low.copy_((chunk_low - shift) / scale)

@@ -141,4 +141,6 @@ class DiffusionPolicy:
                 self._queues[i] = list(actions)
         actions = np.stack([self._queues[i].pop(0) for i in range(n)])
         actions = np.clip(actions, -1.0, 1.0).astype(np.float32)
+        if self.config.hand == "binary":
+            actions[:, -1] = np.where(actions[:, -1] > 0.0, 1.0, -1.0)
         return (actions if batched else actions[0]), state

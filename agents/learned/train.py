@@ -27,7 +27,7 @@ import signal
 import sys
 import threading
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -103,6 +103,13 @@ def _lr_factor(step: int, warmup: int, total: int) -> float:
     return 0.5 * (1 + math.cos(math.pi * min(progress, 1.0)))
 
 
+def hand_kind(labels: np.ndarray) -> str:
+    """``"binary"`` if every labelled hand command (the last entry) is -1 or +1, else
+    ``"continuous"`` (see :class:`DiffusionConfig`); unlabelled (NaN) steps are ignored."""
+    hand = labels[:, -1][np.isfinite(labels[:, -1])]
+    return "binary" if np.isin(hand, (-1.0, 1.0)).all() else "continuous"
+
+
 def train_diffusion(
     dataset: Any,
     out: Path,
@@ -139,6 +146,8 @@ def train_diffusion(
         )
     torch.set_num_threads(1)
     demos = load_demonstrations(dataset, with_features=config.with_features)
+    if init_model is None:
+        config = replace(config, hand=hand_kind(demos.labels))
     sampler = ChunkSampler(demos, config.obs_horizon, config.pred_horizon, config.actions)
     torch.manual_seed(train.seed)
     model = DiffusionModel(config, demos.inputs.shape[1], demos.labels.shape[1])

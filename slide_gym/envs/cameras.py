@@ -151,15 +151,18 @@ class CameraModel:
         uv = cam @ self.intrinsics.T
         return uv[:, :2] / uv[:, 2:], cam[:, 2]
 
-    def unproject(self, depth: np.ndarray) -> np.ndarray:
-        """World points ``(height * width, 3)``, row by row, of a depth image ``(height,
-        width)`` (m along the optical axis)."""
+    def unproject(self, depth: np.ndarray, where: np.ndarray | None = None) -> np.ndarray:
+        """World points ``(n, 3)`` of a depth image ``(height, width)`` (m along the optical
+        axis): of every pixel row by row, or of the pixels of the mask ``where`` in that
+        order."""
         z = np.asarray(depth, dtype=float).reshape(self.height, self.width)
+        mask = np.ones(z.shape, dtype=bool) if where is None else where
+        rows, cols = np.nonzero(mask)
+        z = z[mask]
         (f, _, cx), (_, _, cy), _ = self.intrinsics
-        x = (np.arange(self.width) - cx) / f * z
-        y = (np.arange(self.height)[:, None] - cy) / f * z
+        cam = np.stack([(cols - cx) / f * z, (rows - cy) / f * z, z], axis=-1)
         pose = self.world_from_camera
-        return np.stack([x, y, z], axis=-1).reshape(-1, 3) @ pose[:3, :3].T + pose[:3, 3]
+        return cam @ pose[:3, :3].T + pose[:3, 3]
 
 
 def capture(

@@ -46,12 +46,14 @@ def fuse(
     for model in models:
         colour, depth, seg = capture(client, model, segmentation=True)
         assert seg is not None
-        label = np.full(seg.size, -1, dtype=np.int16)
+        # Body id + 1 -> label (-1: nothing in view, or a body the cloud leaves out).
+        lookup = np.full(max(int(seg.max()), *bodies.values()) + 2, -1, dtype=np.int16)
         for value, name in enumerate(SEGMENT_BODIES):
-            label[seg.reshape(-1) == bodies[name]] = value
+            lookup[bodies[name] + 1] = value
+        label = lookup[seg + 1]
         keep = label >= 0
-        xyz.append(model.unproject(depth)[keep].astype(np.float32))
-        rgb.append(colour.reshape(-1, 3)[keep])
+        xyz.append(model.unproject(depth, keep).astype(np.float32))
+        rgb.append(colour[keep])
         labels.append(label[keep].astype(np.uint8))
     return np.concatenate(xyz), np.concatenate(rgb), np.concatenate(labels)
 

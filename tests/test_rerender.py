@@ -129,9 +129,7 @@ def test_pointcloud_rerender_keeps_the_source_and_names_it(source, capsys) -> No
     assert _replay(new_id) == 0
 
 
-def test_rgbd_rerender_of_the_first_episode_resumes_after_an_interrupt(
-    source, monkeypatch, capsys
-) -> None:
+def test_rgbd_rerender_resumes_after_an_interrupt(source, monkeypatch, capsys) -> None:
     new_id = "test/random-actions-rgbd-v0"
     args = [source, "--obs-mode", "rgbd", "--save-as", new_id, "--image-size", "16", "12"]
     real = rerender_module.rerender_case
@@ -154,6 +152,15 @@ def test_rgbd_rerender_of_the_first_episode_resumes_after_an_interrupt(
     episodes = _check_same_episodes(source, new_id, 2)
     assert episodes[1].observations["wrist_rgb"].shape == (STEPS + 1, 12, 16, 3)
     assert episodes[1].observations["scene_depth"].dtype == np.float32
+
+
+def test_episodes_takes_the_first_k(source, capsys) -> None:
+    new_id = "test/random-actions-first-v0"
+    args = ["--obs-mode", "state", "--save-as", new_id, "--episodes", "1", "--workers", "1"]
+    assert _replay(source, *args) == 0
+    assert json.loads(capsys.readouterr().out)["episodes"] == 1
+    (episode,) = _check_same_episodes(source, new_id, 1)
+    assert episode.seed == 0
 
 
 def test_a_replay_that_differs_from_the_record_writes_nothing(minari_root, capsys) -> None:

@@ -92,9 +92,9 @@ class TopSlideEnv(gym.Env):
 
     ``obs_mode="pointcloud"`` adds ``num_points`` points (default 1024) instead of images:
     both cameras' depth (``render_width`` x ``render_height`` pixels each) turned into
-    world-frame points, the pixels that see nothing left out, and farthest-point sampling
-    from a start drawn from the reset seed's generator (fewer points than asked: all, then
-    seeded repeats):
+    world-frame points (the pixels that see nothing left out), thinned to one point per
+    1 cm voxel and body, then farthest-point sampled from a start drawn from the reset
+    seed's generator (fewer points than asked: all, then seeded repeats):
 
     | key | shape | meaning |
     |---|---|---|
@@ -169,7 +169,7 @@ class TopSlideEnv(gym.Env):
       ``render_width``, ``render_height``: image size in pixels of the cameras of
       ``"rgbd"`` and ``"pointcloud"`` (default 128 x 128) and of ``render()`` (default
       480 x 360); ``camera``: the scene
-      camera of both, a :class:`~slide_gym.envs.cameras.Camera` or a dict of its fields
+      camera of all three, a :class:`~slide_gym.envs.cameras.Camera` or a dict of its fields
       (``target`` (world, m), ``distance`` (m), ``yaw``, ``pitch``, ``fov`` (degrees);
       default ``(0.45, 0, 0.15)``, 1.35, 60, -30, 45).
     - ``control_hz`` (default 20), ``physics_hz`` (default 240), ``max_joint_step`` (rad per

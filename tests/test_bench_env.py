@@ -50,3 +50,21 @@ def test_rgbd_reports_the_image_cost_per_step() -> None:
     assert rgbd["image_ms_per_step"] == pytest.approx(
         1e3 * (1 / rgbd["env_steps_per_s"] - 1 / out["env_steps_per_s"])
     )
+
+
+def test_pointcloud_reports_the_points_cost_per_step() -> None:
+    out = bench_env.bench_env(
+        steps=3,
+        resets=1,
+        repeats=1,
+        random_steps=3,
+        pointcloud=True,
+        image_size=(40, 36),
+        num_points=64,
+    )
+    points = out["pointcloud"]
+    assert points["image_size"] == [40, 36] and points["num_points"] == 64
+    assert points["points_ms_per_step"] == pytest.approx(
+        1e3 * (1 / points["env_steps_per_s"] - 1 / out["env_steps_per_s"])
+    )
+    assert "rgbd" not in out

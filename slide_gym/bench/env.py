@@ -1,7 +1,8 @@
 """``slide-gym bench env``: environment throughput, real-time factor, overhead over raw
-physics stepping, and reset time; optionally the cost of ``obs_mode="rgbd"`` images, against
-panda-gym on random actions, and the press-and-drag check of :mod:`slide_gym.bench.drag` (the
-speed must not bring the creep back)."""
+physics stepping, and reset time; optionally the cost of ``obs_mode="rgbd"`` images and of
+``obs_mode="pointcloud"`` points, against panda-gym on random actions, and the
+press-and-drag check of :mod:`slide_gym.bench.drag` (the speed must not bring the creep
+back)."""
 
 from __future__ import annotations
 
@@ -26,7 +27,9 @@ RANDOM_STEPS = 2000
 AGAINST = {"panda-gym": "PandaPush-v3"}
 """Other environments ``--against`` runs on the same random-action protocol."""
 IMAGE_SIZE = (128, 128)
-"""(width, height) of the ``--rgbd`` run's images (the observation's default)."""
+"""(width, height) of the ``--rgbd`` and ``--pointcloud`` runs' cameras (the default)."""
+NUM_POINTS = 1024
+"""Points of the ``--pointcloud`` run (the observation's default)."""
 
 
 def bench_env(
@@ -42,6 +45,8 @@ def bench_env(
     stability: bool = False,
     rgbd: bool = False,
     image_size: tuple[int, int] = IMAGE_SIZE,
+    pointcloud: bool = False,
+    num_points: int = NUM_POINTS,
 ) -> dict[str, Any]:
     """Env throughput, real-time factor, overhead over raw physics stepping, and reset time.
 
@@ -55,7 +60,9 @@ def bench_env(
     :func:`slide_gym.bench.drag.drag_summary` (sinking and creep of pressed, dragged plates);
     ``stability`` adds :func:`arm_speeds` (how fast random actions ever move the arm).
     ``rgbd`` also replays the actions in an ``obs_mode="rgbd"`` env (``image_size`` images,
-    alternating with the other runs): its steps/s and the images' cost per step (ms).
+    alternating with the other runs): its steps/s and the images' cost per step (ms);
+    ``pointcloud`` likewise in an ``obs_mode="pointcloud"`` env (``num_points`` points from
+    ``image_size`` cameras): its steps/s and the points' cost per step (ms).
     """
     if random_steps < 1:
         raise ValueError(f"random_steps must be >= 1, got {random_steps}")
@@ -68,12 +75,17 @@ def bench_env(
     if steps < 1 or resets < 1:
         raise ValueError(f"steps and resets must be >= 1, got {steps} and {resets}")
     env = TopSlideEnv(object=object_name, table=table_name)
-    envs = [env]
+    width, height = image_size
+    cameras = {"render_width": width, "render_height": height}
+    modes: dict[str, dict[str, Any]] = {}  # observation mode -> its env's extra arguments
+    if rgbd:
+        modes["rgbd"] = {"obs_mode": "rgbd", **cameras}
+    if pointcloud:
+        modes["pointcloud"] = {"obs_mode": "pointcloud", "num_points": num_points, **cameras}
+    envs = {"state": env}
     try:
-        if rgbd:
-            width, height = image_size
-            kwargs = {"obs_mode": "rgbd", "render_width": width, "render_height": height}
-            envs.append(TopSlideEnv(object=object_name, table=table_name, **kwargs))
+        for mode, kwargs in modes.items():
+            envs[mode] = TopSlideEnv(object=object_name, table=table_name, **kwargs)
         reset_times = []
         for i in range(resets):
             t0 = time.perf_counter()
@@ -110,14 +122,15 @@ def bench_env(
             return time.perf_counter() - t0
 
         # Best of a few alternating repeats: the least disturbed run of each.
-        env_wall = raw_wall = rgbd_wall = float("inf")
+        env_wall = raw_wall = float("inf")
+        mode_wall = dict.fromkeys(modes, float("inf"))
         for _ in range(repeats):
             env_wall = min(env_wall, run_env())
             raw_wall = min(raw_wall, run_raw())
-            if rgbd:
-                rgbd_wall = min(rgbd_wall, run_env(envs[1]))
+            for mode in modes:
+                mode_wall[mode] = min(mode_wall[mode], run_env(envs[mode]))
     finally:
-        for each in envs:
+        for each in envs.values():
             each.close()
 
     sim_time = steps * env.dt
@@ -138,12 +151,14 @@ def bench_env(
         "machine": f"{platform.processor() or platform.machine()}, "
         f"OMP_NUM_THREADS={os.environ.get('OMP_NUM_THREADS', 'unset')}",
     }
-    if rgbd:
-        result["rgbd"] = {
+    for mode, wall in mode_wall.items():
+        cost = "image_ms_per_step" if mode == "rgbd" else "points_ms_per_step"
+        result[mode] = {
             "image_size": list(image_size),
-            "env_steps_per_s": steps / rgbd_wall,
-            "env_real_time_factor": sim_time / rgbd_wall,
-            "image_ms_per_step": 1e3 * (rgbd_wall - env_wall) / steps,
+            **({"num_points": num_points} if mode == "pointcloud" else {}),
+            "env_steps_per_s": steps / wall,
+            "env_real_time_factor": sim_time / wall,
+            cost: 1e3 * (wall - env_wall) / steps,
         }
     result.update(_random_actions(object_name, table_name, random_steps, seed, repeats, against))
     if drag:

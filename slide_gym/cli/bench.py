@@ -25,7 +25,7 @@ def _cmd_bench_env(args: argparse.Namespace) -> int:
     from slide_gym.bench.env import bench_env, write_result
 
     options = ("steps", "resets", "seed", "random_steps", "against", "drag", "stability")
-    options += ("rgbd", "image_size")
+    options += ("rgbd", "image_size", "pointcloud", "num_points")
     result = bench_env(args.object, args.table, **{name: getattr(args, name) for name in options})
     write_result(result, args.out)
     return 0
@@ -138,7 +138,11 @@ def _add_env(what: Any) -> None:
         "Step SlideGym/TopSlide-v0 with the scripted slider's actions (recorded once, "
         "replayed), then the same world without observations or rewards; time resets; then "
         "random actions (optionally against another environment on the same protocol).",
-        ["env", "env --object L --table round --drag --out results/env.jsonl", "env --rgbd"],
+        [
+            "env",
+            "env --object L --table round --drag --out results/env.jsonl",
+            "env --rgbd --pointcloud",
+        ],
     )
     p.add_argument("--object", default="square", metavar="NAME", help="catalog name or .json file")
     p.add_argument("--table", default="square", metavar="NAME", help="catalog name or .json file")
@@ -180,7 +184,22 @@ def _add_env(what: Any) -> None:
         nargs=2,
         default=env.IMAGE_SIZE,
         metavar=("W", "H"),
-        help="image width and height of --rgbd in pixels (default: {} {})".format(*env.IMAGE_SIZE),
+        help="camera size of --rgbd and --pointcloud in pixels (default: {} {})".format(
+            *env.IMAGE_SIZE
+        ),
+    )
+    p.add_argument(
+        "--pointcloud",
+        action="store_true",
+        help="also replay the actions with obs_mode='pointcloud' (points fused from both "
+        "cameras' depth): steps/s and the points' cost per step",
+    )
+    p.add_argument(
+        "--num-points",
+        type=int,
+        default=env.NUM_POINTS,
+        metavar="N",
+        help="points of --pointcloud",
     )
     p.add_argument(
         "--out", type=Path, metavar="FILE", help="also append the result as one JSON line here"

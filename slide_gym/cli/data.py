@@ -49,6 +49,9 @@ def _add_split(p: argparse.ArgumentParser, command: str) -> None:
         metavar="NAME",
     )
 
+OBS_MODES = ("state", "rgbd", "pointcloud")
+""":data:`slide_gym.envs.observation.OBS_MODES`, without importing the envs for ``--help``."""
+
 
 def _cmd_collect(args: argparse.Namespace) -> int:
     from slide_gym.datasets.collect import collect
@@ -85,6 +88,9 @@ def _cmd_collect(args: argparse.Namespace) -> int:
 def _cmd_replay(args: argparse.Namespace) -> int:
     from slide_gym.datasets.replay import replay
 
+    rerender_options = ("obs_mode", "save_as", "image_size", "num_points", "workers")
+    if any(getattr(args, name) is not None for name in rerender_options):
+        return _rerender(args)
     if args.video is not None:
         check_output(args.video, (".mp4", ".gif"), "--video")
     results = replay(args.dataset_id, episodes=args.episodes, mode=args.mode, video=args.video)
@@ -101,6 +107,31 @@ def _cmd_replay(args: argparse.Namespace) -> int:
         matched = sum(r.matched for r in results)
         print(f"{matched} of {len(results)} episodes match ({args.mode} replay)")
     return 0 if all(r.matched for r in results) else 1
+
+
+def _rerender(args: argparse.Namespace) -> int:
+    from slide_gym.datasets.rerender import rerender
+
+    if args.obs_mode is None or args.save_as is None:
+        raise ValueError(
+            "--obs-mode and --save-as go together (--image-size, --num-points and --workers "
+            "with them): replay ID --obs-mode MODE --save-as NEW_ID"
+        )
+    if args.mode != "actions" or args.video is not None:
+        raise ValueError("--save-as replays the actions; it takes no --mode states or --video")
+    summary = rerender(
+        args.dataset_id,
+        args.obs_mode,
+        args.save_as,
+        episodes=args.episodes,
+        image_size=args.image_size,
+        num_points=args.num_points,
+        workers=args.workers,
+        backend=args.backend,
+        address=args.ray_address,
+    )
+    print(json.dumps(summary, indent=2))
+    return 0
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
@@ -230,7 +261,7 @@ def add_parsers(sub: Any) -> None:
     )
     p.add_argument("--scale", type=float, default=1.0, metavar="S", help="object scale factor")
     p.add_argument("--thickness", type=float, metavar="M", help="plate thickness in m")
-    p.add_argument("--obs-mode", default="state", choices=("state", "rgbd"), help="env obs mode")
+    p.add_argument("--obs-mode", default="state", choices=OBS_MODES, help="env obs mode")
     p.add_argument(
         "--control-mode",
         default="joint_delta",
@@ -265,16 +296,21 @@ def add_parsers(sub: Any) -> None:
     p = add_command(
         sub,
         "replay",
-        "replay a dataset's episodes and check them against the record",
+        "replay a dataset's episodes, check them against the record, or re-render them",
         "Replay episodes in the dataset's env. --mode actions resets with each episode's "
         "seed and options and steps its actions: every observation must match bit for bit. "
         "--mode states restores each step's infos['sim_state'] and steps its action: PyBullet "
         "keeps contact caches no state vector holds, so poses must match within a "
         "tolerance (slide_gym.datasets.replay.STATE_TOLERANCE). Exit 0 only if every "
-        "episode matches (1 otherwise).",
+        "episode matches (1 otherwise). With --obs-mode and --save-as, the actions are "
+        "replayed with another observation mode into a new dataset (state entries, rewards "
+        "and sim states checked bit for bit against the source; parallel and resumable like "
+        "collect; the metadata names the source).",
         [
             "slide-gym replay slide-gym/square-slide-v0",
             "slide-gym replay slide-gym/square-slide-v0 --episodes 2 --video replay.mp4",
+            "slide-gym replay slide-gym/square-slide-v0 --obs-mode pointcloud "
+            "--save-as slide-gym/square-slide-pointcloud-v0 --workers 2",
         ],
     )
     p.add_argument("dataset_id", metavar="DATASET_ID", help="a local Minari dataset id")
@@ -282,6 +318,27 @@ def add_parsers(sub: Any) -> None:
     p.add_argument("--mode", default="actions", choices=("actions", "states"), help="see above")
     p.add_argument("--video", type=Path, metavar="OUT", help="render the replay to .mp4 or .gif")
     p.add_argument("--json", action="store_true", help="print the results as JSON")
+    p.add_argument(
+        "--obs-mode",
+        metavar="MODE",
+        help=f"re-render into --save-as with this observation mode: {', '.join(OBS_MODES)}",
+    )
+    p.add_argument("--save-as", metavar="NEW_ID", help="the new dataset's id (NAMESPACE/NAME-vK)")
+    p.add_argument(
+        "--image-size",
+        type=int,
+        nargs=2,
+        metavar=("W", "H"),
+        help="camera size of rgbd and pointcloud in pixels (default: the source env's, else "
+        "128 128)",
+    )
+    p.add_argument(
+        "--num-points", type=int, metavar="N", help="points of pointcloud (default: 1024)"
+    )
+    p.add_argument(
+        "--workers", type=int, metavar="W", help="parallel episodes of --save-as (default: cores)"
+    )
+    add_backend(p)
     p.set_defaults(func=_cmd_replay)
 
     p = add_command(

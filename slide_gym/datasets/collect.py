@@ -16,13 +16,14 @@ import json
 import math
 import os
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
-from slide_gym.bench.jobs import check_backend, load_results, run_cases
+from slide_gym.bench.jobs import Case, check_backend, load_results, run_cases
 from slide_gym.datasets.config import CollectConfig, check_dataset_id
 from slide_gym.datasets.recording import RecordedEpisode, record_episode
 from slide_gym.datasets.store import build_dataset, dataset_metadata, local_dataset_ids
@@ -77,30 +78,26 @@ def collect(
     if split is not None:  # every seed stays in the split's collect seeds
         split.first_seed("collect", episodes, config.seed)
     stage = staging_dir(dataset_id)
-    _claim(stage, config, dataset_id)
-    progress = stage / "episodes.jsonl"
+    claim_stage(
+        stage,
+        dataset_id,
+        "config.json",
+        config.to_json(),
+        lambda theirs: config.differences(CollectConfig.from_json(theirs)),
+    )
     episode_dir = stage / "episodes"
-    episode_dir.mkdir(parents=True, exist_ok=True)
-    _forget_missing(progress, episode_dir)
-
-    def store(case: dict[str, Any], result: dict[str, Any]) -> dict[str, Any]:
-        path = episode_dir / f"seed-{case['seed']:08d}.npz"
-        tmp = path.with_suffix(f".{os.getpid()}.tmp")
-        tmp.write_bytes(result.pop("payload"))
-        os.replace(tmp, path)
-        return result
 
     def run(seeds: range) -> list[dict[str, Any]]:
         cases = [{"seed": s, "config": config.to_json()} for s in seeds]
-        return run_cases(
+        return run_staged(
             collect_case,
             cases,
-            progress,
-            workers,
+            stage,
+            lambda case: _name(case["seed"]),
             desc=dataset_id,
+            workers=workers,
             backend=backend,
             address=address,
-            store=store,
             success_key="success",
         )
 
@@ -203,34 +200,89 @@ def _build(
     }
 
 
-def _claim(stage: Path, config: CollectConfig, dataset_id: str) -> None:
-    """Tie the staging folder to ``config``; a ValueError if the id is another collection's."""
-
-    path = stage / "config.json"
+def claim_stage(
+    stage: Path,
+    dataset_id: str,
+    name: str,
+    identity: dict[str, Any],
+    differences: Callable[[dict[str, Any]], list[str]],
+) -> None:
+    """Tie the staging folder to ``identity`` (a JSON object kept there as ``name``); a
+    ValueError if the folder holds another configuration (``differences(theirs)`` lists the
+    fields that differ), another command's job, or the id is a dataset made elsewhere."""
+    path = stage / name
     if path.exists():
-        theirs = CollectConfig.from_json(json.loads(path.read_text()))
-        diff = config.differences(theirs)
+        diff = differences(json.loads(path.read_text()))
         if diff:
             raise ValueError(
-                f"dataset {dataset_id!r} was collected with another configuration "
+                f"dataset {dataset_id!r} was made with another configuration "
                 f"({'; '.join(diff)}, new != existing); use a new id (e.g. bump -vK)"
             )
         return
+    others = sorted(p.name for p in stage.glob("*.json")) if stage.exists() else []
+    if others:
+        raise ValueError(
+            f"dataset {dataset_id!r} is another command's job (its staging folder {stage} "
+            f"holds {others[0]}); use a new id"
+        )
     if dataset_id in local_dataset_ids():
         raise ValueError(
-            f"dataset {dataset_id!r} exists and was not collected here (no staging folder "
+            f"dataset {dataset_id!r} exists and was not made here (no staging folder "
             f"{stage}); use a new id, or delete it with `minari delete {dataset_id}`"
         )
     stage.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps(config.to_json(), indent=2))
+    tmp.write_text(json.dumps(identity, indent=2))
     os.replace(tmp, path)
 
 
-def _forget_missing(progress: Path, episode_dir: Path) -> None:
-    """Drop progress lines whose episode file is gone, so those seeds run again."""
+def run_staged(
+    fn: Callable[[Case], dict[str, Any]],
+    cases: list[Case],
+    stage: Path,
+    file_name: Callable[[Case], str],
+    *,
+    desc: str,
+    workers: int | None = None,
+    backend: str = "local",
+    address: str | None = None,
+    success_key: str | None = None,
+) -> list[dict[str, Any]]:
+    """:func:`run_cases` of ``fn`` (progress bar ``desc``) into ``stage/episodes.jsonl``:
+    each result's ``payload`` (bytes) is written to ``stage/episodes/file_name(case)``
+    (atomically) before its line. A payload of None leaves no file; a line without its file
+    is dropped on the next run, so that case runs again."""
+    progress = stage / "episodes.jsonl"
+    episode_dir = stage / "episodes"
+    episode_dir.mkdir(parents=True, exist_ok=True)
+    _forget_missing(progress, episode_dir, file_name)
+
+    def store(case: Case, result: dict[str, Any]) -> dict[str, Any]:
+        payload = result.pop("payload")
+        if payload is not None:
+            path = episode_dir / file_name(case)
+            tmp = path.with_suffix(f".{os.getpid()}.tmp")
+            tmp.write_bytes(payload)
+            os.replace(tmp, path)
+        return result
+
+    return run_cases(
+        fn,
+        cases,
+        progress,
+        workers,
+        desc=desc,
+        backend=backend,
+        address=address,
+        store=store,
+        success_key=success_key,
+    )
+
+
+def _forget_missing(progress: Path, episode_dir: Path, file_name: Callable[[Case], str]) -> None:
+    """Drop progress lines whose episode file is gone, so those cases run again."""
     rows = load_results(progress)
-    keep = [r for r in rows if (episode_dir / _name(r["case"]["seed"])).exists()]
+    keep = [r for r in rows if (episode_dir / file_name(r["case"])).exists()]
     if len(keep) != len(rows):
         tmp = progress.with_suffix(".tmp")
         tmp.write_text("".join(json.dumps(r) + "\n" for r in keep))

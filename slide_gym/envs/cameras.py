@@ -1,9 +1,10 @@
 """Cameras of the environment: the fixed scene camera and the wrist camera on the hand.
 
-Both render headless with PyBullet's TinyRenderer. :func:`render_rgbd` returns an RGB image
-(H, W, 3) uint8 and, if asked, a depth image (H, W, 1) float32 in metres: the distance along
-the camera's optical axis (the z-buffer linearised), ``FAR`` where nothing is in view.
-:meth:`TopSlideEnv.render` and the ``"rgbd"`` observation share this code.
+Both render headless with PyBullet's TinyRenderer. :class:`CameraModel` is one camera as it
+is now (intrinsics K, pose in the world, size, clip planes); :func:`capture` returns what it
+sees: RGB, metric depth along the optical axis (the z-buffer linearised, ``far`` where
+nothing is in view) and optionally each pixel's body. :meth:`TopSlideEnv.render`, the
+``"rgbd"`` and the ``"pointcloud"`` observations share this code.
 """
 
 from __future__ import annotations
@@ -110,34 +111,92 @@ def wrist_view(client: Any, pos: Sequence[float], quat: Sequence[float]) -> Any:
     return client.computeViewMatrix(eye.tolist(), target.tolist(), (rot @ WRIST_UP).tolist())
 
 
-def render_rgbd(
-    client: Any,
-    view: Any,
-    width: int,
-    height: int,
-    fov: float,
-    depth: bool = True,
-    shadow: bool = False,
-    near: float = NEAR,
-) -> tuple[np.ndarray, np.ndarray | None]:
-    """RGB (height, width, 3) uint8 and, if ``depth``, depth (height, width, 1) float32 in
-    metres from the TinyRenderer (headless); ``shadow`` about doubles the cost."""
-    proj = client.computeProjectionMatrixFOV(fov, width / height, near, FAR)
-    _, _, rgba, zbuf, _ = client.getCameraImage(
+@dataclass(frozen=True)
+class CameraModel:
+    """One camera as it is now: a pinhole model in OpenCV's convention (camera x right, y down,
+    z forward; pixel ``[row, column]`` is seen along the ray through ``(u, v) = (column,
+    row)``), built from PyBullet's ``view`` matrix (16 numbers, column-major).
+
+    ``intrinsics`` is K (3 x 3, pixels) and ``world_from_camera`` the camera's pose in the world
+    (4 x 4: ``p_world = R p_cam + t``); ``width``, ``height`` in pixels, ``fov`` vertical in
+    degrees, ``near`` and ``far`` the clip planes (m)."""
+
+    width: int
+    height: int
+    fov: float
+    near: float
+    far: float
+    view: tuple[float, ...]
+
+    @property
+    def intrinsics(self) -> np.ndarray:
+        # PyBullet's projection scales y by 1 / tan(fov / 2) and x by that over the aspect
+        # ratio, so both focal lengths are height / (2 tan(fov / 2)) pixels. The TinyRenderer
+        # samples each pixel at its corner in OpenGL's window (y up): pixel [j, i] at
+        # x = i, y = height - 1 - j, which puts the principal point at (w / 2, h / 2 - 1).
+        f = 0.5 * self.height / math.tan(math.radians(self.fov) / 2.0)
+        cx, cy = self.width / 2.0, self.height / 2.0 - 1.0
+        return np.array([[f, 0.0, cx], [0.0, f, cy], [0.0, 0.0, 1.0]])
+
+    @property
+    def world_from_camera(self) -> np.ndarray:
+        camera_from_world = np.asarray(self.view, dtype=float).reshape(4, 4).T  # OpenGL axes
+        return np.linalg.inv(camera_from_world) @ np.diag([1.0, -1.0, -1.0, 1.0])
+
+    def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Pixel coordinates ``(n, 2)`` and depths ``(n,)`` (m along the optical axis) of
+        world points ``(n, 3)``."""
+        pose = self.world_from_camera
+        cam = (np.asarray(points, dtype=float).reshape(-1, 3) - pose[:3, 3]) @ pose[:3, :3]
+        uv = cam @ self.intrinsics.T
+        return uv[:, :2] / uv[:, 2:], cam[:, 2]
+
+    def unproject(self, depth: np.ndarray, where: np.ndarray | None = None) -> np.ndarray:
+        """World points ``(n, 3)`` of a depth image ``(height, width)`` (m along the optical
+        axis): of every pixel row by row, or of the pixels of the mask ``where`` in that
+        order."""
+        z = np.asarray(depth, dtype=float).reshape(self.height, self.width)
+        mask = np.ones(z.shape, dtype=bool) if where is None else where
+        rows, cols = np.nonzero(mask)
+        z = z[mask]
+        (f, _, cx), (_, _, cy), _ = self.intrinsics
+        cam = np.stack([(cols - cx) / f * z, (rows - cy) / f * z, z], axis=-1)
+        pose = self.world_from_camera
+        return cam @ pose[:3, :3].T + pose[:3, 3]
+
+
+def capture(
+    client: Any, model: CameraModel, shadow: bool = False, segmentation: bool = False
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """What ``model`` sees, from the TinyRenderer (headless): RGB ``(height, width, 3)`` uint8,
+    depth ``(height, width)`` float64 in metres along the optical axis (``far`` where nothing
+    is in view) and, if ``segmentation``, the PyBullet body id of each pixel (int32, -1 for
+    none); ``shadow`` about doubles the cost."""
+    width, height, near, far = model.width, model.height, model.near, model.far
+    proj = client.computeProjectionMatrixFOV(model.fov, width / height, near, far)
+    _, _, rgba, zbuf, seg = client.getCameraImage(
         width,
         height,
-        view,
+        model.view,
         proj,
         renderer=pb.ER_TINY_RENDERER,
         shadow=int(shadow),
-        flags=pb.ER_NO_SEGMENTATION_MASK,
+        flags=0 if segmentation else pb.ER_NO_SEGMENTATION_MASK,
     )
     rgb = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)[:, :, :3].copy()
-    if not depth:
-        return rgb, None
-    z = np.asarray(zbuf, dtype=np.float64).reshape(height, width, 1)
-    metres = FAR * near / (FAR - (FAR - near) * z)
-    return rgb, np.clip(metres, near, FAR).astype(np.float32)
+    # The depth buffer holds OpenGL window depth in [0, 1]; invert the perspective division.
+    z = np.asarray(zbuf, dtype=np.float64).reshape(height, width)
+    metres = far * near / (far - (far - near) * z)
+    labels = np.asarray(seg, dtype=np.int32).reshape(height, width) if segmentation else None
+    return rgb, metres, labels
+
+
+def render_rgbd(client: Any, model: CameraModel) -> tuple[np.ndarray, np.ndarray]:
+    """RGB ``(height, width, 3)`` uint8 and depth ``(height, width, 1)`` float32 in metres,
+    clipped to ``[near, far]``: the ``"rgbd"`` observation's pair of images."""
+    rgb, metres, _ = capture(client, model)
+    depth = np.clip(metres, model.near, model.far).astype(np.float32)
+    return rgb, depth[:, :, None]
 
 
 def image_size(width: int | None, height: int | None, default: tuple[int, int]) -> tuple[int, int]:
@@ -149,14 +208,5 @@ def image_size(width: int | None, height: int | None, default: tuple[int, int]) 
 
 def render_frame(client: Any, camera: Camera, width: int, height: int) -> np.ndarray:
     """The scene camera's picture for :meth:`TopSlideEnv.render`: RGB with shadows."""
-    rgb, _ = render_rgbd(
-        client,
-        camera.view(client),
-        width,
-        height,
-        camera.fov,
-        depth=False,
-        shadow=True,
-        near=RENDER_NEAR,
-    )
-    return rgb
+    model = CameraModel(width, height, camera.fov, RENDER_NEAR, FAR, camera.view(client))
+    return capture(client, model, shadow=True)[0]

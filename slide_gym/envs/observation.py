@@ -5,7 +5,9 @@ table in :class:`~slide_gym.envs.top_slide.TopSlideEnv`) and packs them from the
 the task's :class:`~slide_gym.task.SceneState`, clipped to the declared bounds. Every entry
 is a 1-D float32 box, which Stable-Baselines3's ``check_env`` accepts without warnings: the
 outlines are flattened ``(x0, y0, x1, y1, ...)``. :class:`RgbdObservation` (``"rgbd"``) adds
-the scene and wrist cameras' images (:mod:`slide_gym.envs.cameras`).
+the scene and wrist cameras' images (:mod:`slide_gym.envs.cameras`),
+:class:`PointCloudObservation` (``"pointcloud"``) a fixed number of world-frame points fused
+from both cameras' depth, with RGB and a segmentation label (:mod:`slide_gym.envs.pointcloud`).
 """
 
 from __future__ import annotations
@@ -24,16 +26,25 @@ from slide_gym.envs.cameras import (
     WRIST_FOV,
     WRIST_LINK,
     Camera,
+    CameraModel,
     image_size,
     render_rgbd,
     wrist_view,
+)
+from slide_gym.envs.pointcloud import (
+    NUM_POINTS,
+    SEGMENT_NAMES,
+    check_num_points,
+    fuse,
+    sample_indices,
 )
 from slide_gym.geometry import ObjectShape, TableShape, outline_descriptor
 from slide_gym.robot import ARM_LOWER, ARM_UPPER, FINGER_LOWER, FINGER_UPPER, WamT42
 from slide_gym.task import SceneState
 
-OBS_MODES = ("state", "rgbd")
-"""Observation modes: ``"state"`` (the Dict below) and ``"rgbd"`` (plus camera images)."""
+OBS_MODES = ("state", "rgbd", "pointcloud")
+"""Observation modes: ``"state"`` (the Dict below), ``"rgbd"`` (plus camera images) and
+``"pointcloud"`` (plus a point cloud)."""
 OBJECT_OUTLINE_POINTS = 32
 TABLE_OUTLINE_POINTS = 64
 MAX_HOLES = 4
@@ -42,6 +53,8 @@ HOLE_POINTS = 16
 """Points per hole, evenly spaced by arc length along its ring."""
 IMAGE_KEYS = ("scene_rgb", "scene_depth", "wrist_rgb", "wrist_depth")
 """The ``"rgbd"`` mode's extra entries."""
+POINT_KEYS = ("pointcloud_xyz", "pointcloud_rgb", "pointcloud_segmentation")
+"""The ``"pointcloud"`` mode's extra entries."""
 POS_BOUND = 3.0
 VEL_BOUND = 20.0
 OUTLINE_BOUND = 3.0
@@ -128,9 +141,12 @@ class StateObservation:
         self._low = np.concatenate([self.space[k].low for k in FLAT_KEYS])
         self._high = np.concatenate([self.space[k].high for k in FLAT_KEYS])
         self._scene: dict[str, np.ndarray] = {}
+        self.rng = np.random.default_rng(0)
 
-    def set_scene(self, obj: ObjectShape, table: TableShape) -> None:
-        """The episode's outline and hole descriptors and the table height."""
+    def set_scene(self, obj: ObjectShape, table: TableShape, rng: np.random.Generator) -> None:
+        """The episode's outline and hole descriptors, the table height, and the generator
+        the episode's observations draw from (only the point cloud's sampling does)."""
+        self.rng = rng
         holes, mask = holes_descriptor(obj)
         scene = {
             "object_outline": obj.descriptor(OBJECT_OUTLINE_POINTS).reshape(-1),
@@ -167,10 +183,14 @@ class StateObservation:
         obs.update({key: value.copy() for key, value in self._scene.items()})
         return obs
 
+    def cameras(self, robot: WamT42) -> dict[str, CameraModel]:
+        """The cameras the observation renders, as they are now (none for the state)."""
+        return {}
 
-class RgbdObservation(StateObservation):
-    """The state entries plus RGB (uint8) and depth (float32, metres along the optical axis)
-    images of the scene camera and of the wrist camera, rendered headless every step."""
+
+class CameraObservation(StateObservation):
+    """The state entries; :meth:`cameras` are the scene camera and the wrist camera, both
+    ``width`` x ``height`` pixels."""
 
     def __init__(
         self,
@@ -181,6 +201,28 @@ class RgbdObservation(StateObservation):
         super().__init__()
         self.width, self.height = image_size(width, height, OBS_IMAGE_SIZE)
         self.camera = Camera.of(camera)
+
+    def cameras(self, robot: WamT42) -> dict[str, CameraModel]:
+        client = robot.sim.client
+        w, h = self.width, self.height
+        wrist = wrist_view(client, *robot.link_pose(WRIST_LINK))
+        return {
+            "scene": CameraModel(w, h, self.camera.fov, NEAR, FAR, self.camera.view(client)),
+            "wrist": CameraModel(w, h, WRIST_FOV, NEAR, FAR, wrist),
+        }
+
+
+class RgbdObservation(CameraObservation):
+    """The state entries plus RGB (uint8) and depth (float32, metres along the optical axis)
+    images of the scene camera and of the wrist camera, rendered headless every step."""
+
+    def __init__(
+        self,
+        width: int | None = None,
+        height: int | None = None,
+        camera: Camera | Mapping[str, Any] | None = None,
+    ) -> None:
+        super().__init__(width, height, camera)
         h, w = self.height, self.width
         rgb = spaces.Box(0, 255, (h, w, 3), np.uint8)
         depth = box(NEAR, FAR, (h, w, 1))
@@ -190,13 +232,43 @@ class RgbdObservation(StateObservation):
     def read(self, robot: WamT42, state: SceneState, hand_command: float) -> dict[str, np.ndarray]:
         """The state entries and this step's four images."""
         obs = super().read(robot, state, hand_command)
-        client = robot.sim.client
-        size = (self.width, self.height)
-        scene = render_rgbd(client, self.camera.view(client), *size, self.camera.fov)
-        wrist = render_rgbd(
-            client, wrist_view(client, *robot.link_pose(WRIST_LINK)), *size, WRIST_FOV
-        )
+        cameras = self.cameras(robot)
+        scene = render_rgbd(robot.sim.client, cameras["scene"])
+        wrist = render_rgbd(robot.sim.client, cameras["wrist"])
         obs.update(zip(IMAGE_KEYS, (*scene, *wrist), strict=True))
+        return obs
+
+
+class PointCloudObservation(CameraObservation):
+    """The state entries plus ``num_points`` points fused from the scene and wrist cameras'
+    depth (:mod:`slide_gym.envs.pointcloud`): world positions (float32, m), RGB (uint8) and
+    labels (uint8, :data:`SEGMENT_NAMES`), sampled with the episode's generator."""
+
+    def __init__(
+        self,
+        width: int | None = None,
+        height: int | None = None,
+        camera: Camera | Mapping[str, Any] | None = None,
+        num_points: int | None = None,
+    ) -> None:
+        super().__init__(width, height, camera)
+        n = self.num_points = NUM_POINTS if num_points is None else check_num_points(num_points)
+        points = {
+            "pointcloud_xyz": box(-POS_BOUND, POS_BOUND, (n, 3)),
+            "pointcloud_rgb": spaces.Box(0, 255, (n, 3), np.uint8),
+            "pointcloud_segmentation": spaces.Box(0, len(SEGMENT_NAMES) - 1, (n,), np.uint8),
+        }
+        self.space = spaces.Dict({**self.space.spaces, **points})
+
+    def read(self, robot: WamT42, state: SceneState, hand_command: float) -> dict[str, np.ndarray]:
+        """The state entries and this step's point cloud."""
+        obs = super().read(robot, state, hand_command)
+        cameras = self.cameras(robot).values()
+        xyz, rgb, labels = fuse(robot.sim.client, cameras, robot.sim.bodies)
+        keep = sample_indices(xyz, labels, self.num_points, self.rng)
+        obs["pointcloud_xyz"] = np.clip(xyz[keep], -POS_BOUND, POS_BOUND)
+        obs["pointcloud_rgb"] = rgb[keep]
+        obs["pointcloud_segmentation"] = labels[keep]
         return obs
 
 
@@ -205,10 +277,16 @@ def make_observation(
     width: int | None = None,
     height: int | None = None,
     camera: Camera | Mapping[str, Any] | None = None,
+    num_points: int | None = None,
 ) -> StateObservation:
-    """The observation of ``obs_mode`` (one of :data:`OBS_MODES`)."""
+    """The observation of ``obs_mode`` (one of :data:`OBS_MODES`); ``num_points`` only for
+    ``"pointcloud"``."""
     if obs_mode not in OBS_MODES:
         raise ValueError(f"obs_mode must be one of {', '.join(OBS_MODES)}, got {obs_mode!r}")
+    if num_points is not None and obs_mode != "pointcloud":
+        raise ValueError(f"num_points goes with obs_mode='pointcloud', not {obs_mode!r}")
+    if obs_mode == "pointcloud":
+        return PointCloudObservation(width, height, camera, num_points)
     if obs_mode == "rgbd":
         return RgbdObservation(width, height, camera)
     return StateObservation()

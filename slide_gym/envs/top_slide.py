@@ -7,7 +7,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from slide_gym.envs.cameras import RENDER_SIZE, Camera, image_size, render_frame
+from slide_gym.envs.cameras import RENDER_SIZE, Camera, CameraModel, image_size, render_frame
 from slide_gym.envs.control import make_control
 from slide_gym.envs.observation import OBS_MODES, make_observation
 from slide_gym.envs.reward import DenseReward, sparse_terms
@@ -90,6 +90,22 @@ class TopSlideEnv(gym.Env):
     ``check_env`` takes any 3-D box for an image and warns that the depth images are not
     uint8 in [0, 255]; they stay float metres so that mm-thin plates show.
 
+    ``obs_mode="pointcloud"`` adds ``num_points`` points (default 1024) instead of images:
+    both cameras' depth (``render_width`` x ``render_height`` pixels each) turned into
+    world-frame points (the pixels that see nothing left out), thinned to one point per
+    1 cm voxel and body, then farthest-point sampled from a start drawn from the reset
+    seed's generator (fewer points than asked: all, then seeded repeats):
+
+    | key | shape | meaning |
+    |---|---|---|
+    | ``pointcloud_xyz`` | (N, 3) float32 | world position of each point (m) |
+    | ``pointcloud_rgb`` | (N, 3) uint8 | its colour |
+    | ``pointcloud_segmentation`` | (N,) uint8 | 0 plate, 1 table, 2 robot |
+
+    ``env.unwrapped.cameras`` gives both modes' cameras as they are now
+    (:class:`~slide_gym.envs.cameras.CameraModel`: intrinsics K, ``world_from_camera``,
+    width, height, near and far, in OpenCV's axes).
+
     ## Rewards
     ``reward_type="sparse"``: 1 on success, 0 otherwise (falling off also pays 0: it ends the
     episode, forfeiting any later success, so it is never better than staying).
@@ -148,10 +164,12 @@ class TopSlideEnv(gym.Env):
       to 5 cm) instead of its own.
     - ``goal``: ``"slide"`` or ``"grasp"``; ``reward_type``: ``"sparse"`` or ``"dense"``.
     - ``render_mode``: ``None``, ``"rgb_array"`` (headless TinyRenderer) or ``"human"`` (GUI).
-    - ``obs_mode``: ``"state"`` (default) or ``"rgbd"`` (see Observation Space);
-      ``render_width``, ``render_height``: image size in pixels of the ``"rgbd"`` images
-      (default 128 x 128) and of ``render()`` (default 480 x 360); ``camera``: the scene
-      camera of both, a :class:`~slide_gym.envs.cameras.Camera` or a dict of its fields
+    - ``obs_mode``: ``"state"`` (default), ``"rgbd"`` or ``"pointcloud"`` (see Observation
+      Space), with ``num_points`` (``"pointcloud"`` only, default 1024);
+      ``render_width``, ``render_height``: image size in pixels of the cameras of
+      ``"rgbd"`` and ``"pointcloud"`` (default 128 x 128) and of ``render()`` (default
+      480 x 360); ``camera``: the scene
+      camera of all three, a :class:`~slide_gym.envs.cameras.Camera` or a dict of its fields
       (``target`` (world, m), ``distance`` (m), ``yaw``, ``pitch``, ``fov`` (degrees);
       default ``(0.45, 0, 0.15)``, 1.35, 60, -30, 45).
     - ``control_hz`` (default 20), ``physics_hz`` (default 240), ``max_joint_step`` (rad per
@@ -183,6 +201,7 @@ class TopSlideEnv(gym.Env):
         render_width: int | None = None,
         render_height: int | None = None,
         camera: Camera | dict[str, Any] | None = None,
+        num_points: int | None = None,
     ):
         if goal not in ("slide", "grasp"):
             raise ValueError(f"goal must be 'slide' or 'grasp', got {goal!r}")
@@ -209,7 +228,9 @@ class TopSlideEnv(gym.Env):
         self.metadata = {**self.metadata, "render_fps": control_hz}
         self.camera = Camera.of(camera)
         self.render_size = image_size(render_width, render_height, RENDER_SIZE)
-        self.observer = make_observation(obs_mode, render_width, render_height, self.camera)
+        self.observer = make_observation(
+            obs_mode, render_width, render_height, self.camera, num_points
+        )
 
         self.scene = SceneChoice(object, table, scale, thickness)
 
@@ -295,7 +316,9 @@ class TopSlideEnv(gym.Env):
         self.robot.set_arm_targets(self.control.target)
         for _ in range(_SETTLE_STEPS):
             self.robot.step_physics()
-        self.observer.set_scene(obj, table)
+        # The observation's own generator (the point cloud's sampling): a child of the reset
+        # seed's, so it draws nothing from the env's stream.
+        self.observer.set_scene(obj, table, self.np_random.spawn(1)[0])
         self._put_state = None
         self._state = self._read_state()
         self._lift_steps = 0
@@ -371,6 +394,16 @@ class TopSlideEnv(gym.Env):
         self._restore(s)
         self._put_state = s
         self._state = self._read_state()
+
+    @property
+    def cameras(self) -> dict[str, CameraModel]:
+        """The observation's cameras as they are now (``"scene"`` and ``"wrist"``; none for
+        ``obs_mode="state"``): intrinsics, pose in the world (the wrist camera's moves with
+        the hand: read it after each step), size and clip planes, to turn the ``"rgbd"``
+        depth images into points (:meth:`CameraModel.unproject`)."""
+        if self._state is None:
+            raise RuntimeError("call reset() before reading cameras: the robot is not built")
+        return self.observer.cameras(self.robot)
 
     def observation(self) -> dict[str, np.ndarray]:
         """The observation of the current state (as :meth:`step` would return it)."""

@@ -148,6 +148,7 @@ ROWS = {
             {**SQUARE, **EE},
             "slide-gym/square-slide-ee-dart-v1",
             {**SQUARE_SLIDE, "action_noise": 0.1},
+            ["--actions", "deltas", "--scaling", "standard", "--iterations", "10000"],
         ),
         Row("expert-ee-catalog-slide", "expert", SLIDE, {**CATALOG, **EE}),
         Row(

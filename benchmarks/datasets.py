@@ -40,7 +40,7 @@ def _collect(root: Path, env_id: str, episodes: int, dataset_id: str, workers: i
 
 
 def throughput(args: argparse.Namespace) -> dict[str, Any]:
-    from slide_gym.experiments.version import code_version
+    from slide_gym.version import code_version
 
     rows = []
     for workers in (1, 2):
@@ -86,7 +86,7 @@ def bc(args: argparse.Namespace) -> list[dict[str, Any]]:
     from agents.bc import train_bc, write_model_card
     from agents.evaluate import evaluate
     from slide_gym.datasets.store import load
-    from slide_gym.experiments.version import code_version
+    from slide_gym.version import code_version
 
     path = args.out / "bc.json"
     done = json.loads(path.read_text()) if path.exists() else []

@@ -222,7 +222,7 @@ def _cli(*args: str) -> None:
 
 def run(row: Row, models: Path, out: Path) -> dict[str, Any]:
     from agents.evaluate import evaluate
-    from slide_gym.experiments.version import code_version
+    from slide_gym.version import code_version
 
     start = time.perf_counter()
     agent: Any

@@ -96,7 +96,7 @@ def add_choice(
 
 def add_backend(p: argparse.ArgumentParser) -> None:
     """``--backend local|ray`` and ``--ray-address`` of the parallel jobs."""
-    from slide_gym.bench.jobs import BACKENDS
+    from slide_gym.jobs import BACKENDS
 
     add_choice(
         p,

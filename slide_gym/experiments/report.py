@@ -15,7 +15,6 @@ from typing import Any
 
 import numpy as np
 
-from slide_gym.bench.jobs import load_results
 from slide_gym.experiments.specs import (
     CUTS,
     DZ_MINUS,
@@ -24,8 +23,9 @@ from slide_gym.experiments.specs import (
     VARIANTS,
     experiment_cases,
 )
-from slide_gym.experiments.stats import mean_and_sem, wilson_interval
-from slide_gym.experiments.version import code_version
+from slide_gym.jobs import load_results
+from slide_gym.stats import mean_and_sem, wilson_interval
+from slide_gym.version import code_version
 
 MARKS = (1.0, 5.0, 10.0, 20.0, 60.0)
 """Budgets (s) at which success rates are tabulated."""

@@ -1,4 +1,4 @@
-"""Dataset benchmarks for the README's "Datasets" section.
+"""Dataset benchmarks for the documentation's "Datasets" page.
 
 ``throughput``: collect the same episodes with 1 and then 2 worker processes into a fresh
 Minari folder each, and report successful demonstrations per minute (per worker) and the

@@ -1,4 +1,4 @@
-"""Learning from the expert's demonstrations: the rows of the README's "Learning" table.
+"""Learning from the expert's demonstrations: the rows of the documentation's "Learning" table.
 
 Each row collects its dataset (``slide-gym collect``, resumable), trains its policy
 (``slide-gym train-dp`` / ``train-bc`` / ``dagger``, resumable) into ``MODELS/ROW``, and

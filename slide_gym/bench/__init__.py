@@ -1,4 +1,4 @@
-"""Benchmarks run by ``slide-gym bench``; the README's numbers come from here.
+"""Benchmarks run by ``slide-gym bench``; the documentation's "Benchmarks" page comes from here.
 
 - :mod:`slide_gym.bench.env`: environment throughput (``bench env``).
 - :mod:`slide_gym.bench.plan`: the planners' success rate against time (``bench plan``).

@@ -10,7 +10,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("slide_gym", "agents", "benchmarks", "tools")
 
-# --8<-- [start:layers]
+# layers: start
 LAYERS: tuple[tuple[str, ...], ...] = (
     # 0: foundations: PyBullet client, URDF paths, polygons and shapes, small shared helpers
     (
@@ -32,7 +32,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("slide_gym.cli",),  # 10: the `slide-gym` command
     ("benchmarks", "tools"),  # 11: scripts
 )
-# --8<-- [end:layers]
+# layers: end
 
 
 def layer_of(module: str) -> int:

@@ -3,8 +3,9 @@ PYTHON ?= python3
 VENV ?= .venv
 PY := $(VENV)/bin/python
 export OMP_NUM_THREADS ?= 1
+export NO_MKDOCS_2_WARNING ?= 1
 
-.PHONY: install demo readme-gif test lint bench clean
+.PHONY: install demo readme-gif test lint docs docs-serve bench clean
 
 $(VENV)/.installed: pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -13,7 +14,7 @@ $(VENV)/.installed: pyproject.toml
 	# resolves to a CPU wheel; elsewhere pass TORCH_INDEX=https://download.pytorch.org/whl/cpu
 	# (PyPI's torch==2.13.0 for Linux is the multi-GB CUDA build).
 	$(PY) -m pip install -q torch==2.13.0 $(if $(TORCH_INDEX),--index-url $(TORCH_INDEX))
-	$(PY) -m pip install -q -e ".[dev,rl,ray,ompl]"
+	$(PY) -m pip install -q -e ".[dev,rl,ray,ompl,docs]"
 	touch $@
 
 install: $(VENV)/.installed
@@ -31,12 +32,23 @@ readme-gif: $(VENV)/.installed
 	$(VENV)/bin/slide-gym run --object E --table square --seed 0 --time-budget 60 \
 		--video docs/expert.gif --json
 
-test: $(VENV)/.installed
-	$(PY) -m ruff check .
+test: lint docs
 	$(PY) -m pytest -q
+
+lint: $(VENV)/.installed
+	$(PY) -m ruff check .
+	$(PY) -m ruff format --check .
+
+# The documentation site (mkdocs.yml, docs/): strict, so a broken link, anchor, missing page
+# or docstring reference fails.
+docs: $(VENV)/.installed
+	$(PY) -m mkdocs build --strict  # not --quiet: it hides the warnings that strict counts
+
+docs-serve: $(VENV)/.installed
+	$(PY) -m mkdocs serve
 
 bench: $(VENV)/.installed
 	$(VENV)/bin/slide-gym bench env
 
 clean:
-	rm -rf $(VENV) build dist *.egg-info .pytest_cache .ruff_cache
+	rm -rf $(VENV) build dist site *.egg-info .pytest_cache .ruff_cache

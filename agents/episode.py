@@ -54,7 +54,7 @@ def run_episode(
     envs end when the plate is left graspable. ``object_pose``: ``(x, y, yaw)`` instead of the
     seed's. ``control_mode``: the env's and the agent's (``"joint_delta"`` or ``"ee_delta"``).
 
-    ``params`` (execution) and ``planner_params`` (:class:`~slide_gym.planning.SlideParams`
+    ``params`` (execution) and ``planner_params`` (:class:`~slide_gym.planning.params.SlideParams`
     overrides) go to :class:`~agents.planner_agent.PlannerAgent`.
     """
     check_time_budget(time_budget)

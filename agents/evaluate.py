@@ -18,10 +18,10 @@ import gymnasium as gym
 import numpy as np
 
 from slide_gym import DICT_ENV_IDS
-from slide_gym.experiments.stats import wilson_interval
 from slide_gym.planning.api import PLANNERS
 from slide_gym.planning.result import check_time_budget
 from slide_gym.splits import TEST_SEED
+from slide_gym.stats import wilson_interval
 
 RANDOM = "random"
 """The agent name of uniform random actions."""

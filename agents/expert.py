@@ -1,7 +1,7 @@
 """One episode of the planner-driven expert: plan, press, slide, re-aim, grasp, lift.
 
-:class:`SlideGraspExpert` turns a :class:`~slide_gym.planning.TopSlidePlanner` result into the
-environment's actions: joint increments, or fingertip-pose increments with an
+:class:`SlideGraspExpert` turns a :class:`~slide_gym.planning.top_slide.TopSlidePlanner`
+result into the environment's actions: joint increments, or fingertip-pose increments with an
 :class:`~agents.ee_actions.EEActions` (``control_mode="ee_delta"``). It reads everything from
 observations (scene outlines, object pose, fingertip pose) and keeps its own copy of the
 environment's arm targets.

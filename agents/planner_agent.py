@@ -48,7 +48,7 @@ class PlannerAgent:
         params: execution parameters; ``max_joint_step`` and ``control_hz``: the env's values.
         control_mode: the env's (``"joint_delta"`` or ``"ee_delta"``), with its
             ``max_tip_step`` and ``max_rot_step`` in ``ee_delta`` mode.
-        **planner_params: :class:`~slide_gym.planning.SlideParams` overrides (e.g. ``dz``).
+        **planner_params: :class:`~slide_gym.planning.params.SlideParams` overrides (e.g. ``dz``).
     """
 
     def __init__(

@@ -1,4 +1,4 @@
-"""Dataset benchmarks for the README's "Datasets" section.
+"""Dataset benchmarks for the documentation's "Datasets" page.
 
 ``throughput``: collect the same episodes with 1 and then 2 worker processes into a fresh
 Minari folder each, and report successful demonstrations per minute (per worker) and the
@@ -40,7 +40,7 @@ def _collect(root: Path, env_id: str, episodes: int, dataset_id: str, workers: i
 
 
 def throughput(args: argparse.Namespace) -> dict[str, Any]:
-    from slide_gym.experiments.version import code_version
+    from slide_gym.version import code_version
 
     rows = []
     for workers in (1, 2):
@@ -86,8 +86,8 @@ def bc(args: argparse.Namespace) -> list[dict[str, Any]]:
     from agents.bc import train_bc, write_model_card
     from agents.evaluate import evaluate
     from slide_gym.datasets.store import load
-    from slide_gym.experiments.version import code_version
     from slide_gym.splits import TEST_SEED
+    from slide_gym.version import code_version
 
     path = args.out / "bc.json"
     done = json.loads(path.read_text()) if path.exists() else []

@@ -1,4 +1,4 @@
-"""Learning from the expert's demonstrations: the rows of the README's "Learning" table.
+"""Learning from the expert's demonstrations: the rows of the documentation's "Learning" table.
 
 Each row collects its dataset (``slide-gym collect``, resumable), trains its policy
 (``slide-gym train-dp`` / ``train-bc`` / ``dagger``, resumable) into ``MODELS/ROW``, and
@@ -268,7 +268,7 @@ def _cli(*args: str) -> None:
 
 def run(row: Row, models: Path, out: Path) -> dict[str, Any]:
     from agents.evaluate import evaluate
-    from slide_gym.experiments.version import code_version
+    from slide_gym.version import code_version
 
     start = time.perf_counter()
     agent: Any

@@ -55,7 +55,8 @@ RENDER_MODES: tuple[str | None, ...] = (None, "rgb_array", "human")
 OBJECT_STATE_SIZE = 13
 """Length of :meth:`Simulation.body_state`: position, quaternion, linear, angular velocity."""
 MAX_IMAGE_SIDE = 4096
-"""Largest image width or height (pixels) that :meth:`Simulation.render` accepts."""
+"""Largest image width or height (pixels) of a rendered image
+(:func:`slide_gym.envs.cameras.render_frame`)."""
 
 
 @dataclass(frozen=True)
@@ -64,7 +65,7 @@ class PhysicsParams:
 
     Thin plates (0.5-10 mm) are pressed, dragged and pinched between the multibody finger
     and the static table. What makes that sound (``slide-gym bench env --drag`` measures it;
-    README, "Performance"):
+    docs/benchmarks.md, "Thin plates"):
 
     - the table and object prisms carry polyhedral features (PyBullet's
       ``URDF_INITIALIZE_SAT_FEATURES``), so every step Bullet clips face against face and

@@ -73,7 +73,7 @@ def test_name_lists_hold_every_accepted_name(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
     monkeypatch.setattr("slide_gym.cli.commands._run_episode", _refuse)
-    monkeypatch.setattr("slide_gym.bench.jobs.run_cases", _refuse)
+    monkeypatch.setattr("slide_gym.jobs.run_cases", _refuse)
     if argv[0] == "bench":
         argv = [*argv, "--out", str(minari_root / "bench.jsonl")]
     err = _one_line(argv, capsys)

@@ -9,9 +9,9 @@ from typing import Any
 
 import pytest
 
-from slide_gym import __version__
+from slide_gym import __version__, version
 from slide_gym.cli import main
-from slide_gym.experiments import run, specs, version
+from slide_gym.experiments import run, specs
 from slide_gym.experiments.specs import experiment_cases
 
 ROW_KEYS = {

@@ -10,8 +10,9 @@ from typing import Any
 import pytest
 
 from agents import EpisodeRecord
-from slide_gym.bench import execute, jobs, plan
-from slide_gym.bench.jobs import case_key, load_results, run_cases
+from slide_gym import jobs
+from slide_gym.bench import execute, plan
+from slide_gym.jobs import case_key, load_results, run_cases
 
 CALLS: list[int] = []
 

@@ -29,7 +29,7 @@ from slide_gym.datasets.store import (
     read_episodes,
 )
 from slide_gym.envs.observation import OBS_MODES, POINT_KEYS
-from slide_gym.experiments.version import code_version
+from slide_gym.version import code_version
 
 ENV_ID = "SlideGym/TopSlide-v0"
 SOURCE = "test/random-actions-v0"

@@ -207,8 +207,8 @@ def run_dagger(
     dataset is Minari ``dataset_id`` (rebuilt after each round). Returns a summary with one
     row per round. Rerunning the same command resumes where it stopped."""
     from agents.learned.train import TrainConfig, train_diffusion
-    from slide_gym.bench.jobs import check_backend, run_cases
     from slide_gym.datasets.store import build_dataset, load, read_episodes
+    from slide_gym.jobs import check_backend, run_cases
 
     check_dataset_id(dataset_id)
     check_backend(backend, address)

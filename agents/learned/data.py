@@ -184,7 +184,8 @@ class ChunkSampler:
 
     def chunk_stats(self) -> tuple[np.ndarray, ...]:
         """Mean, standard deviation, minimum and maximum of every chunk entry, each
-        ``(pred_horizon, action_dim)``: what :meth:`DiffusionModel.set_stats` scales by."""
+        ``(pred_horizon, action_dim)``: what
+        :meth:`~agents.learned.diffusion.DiffusionModel.set_stats` scales by."""
         c = self.chunks.astype(np.float64)
         stats = (c.mean(axis=0), c.std(axis=0), c.min(axis=0), c.max(axis=0))
         return tuple(a.astype(np.float32) for a in stats)

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from slide_gym import EXPERT_ENV_ID
-from slide_gym.bench.jobs import run_cases
+from slide_gym.jobs import run_cases
 
 if TYPE_CHECKING:  # agents builds on slide_gym: imported on use only
     from agents.record import EpisodeRecord
@@ -98,7 +98,7 @@ def bench_execute(
     ``seed + k + T * i``, so ``--objects procedural --trials 50`` runs 200 different plates
     on the 4 tables. ``scale`` and ``thickness`` (m) apply to every object. ``env_id``: the
     environment (``SlideGym/TopSlide-v0``: the slide alone, success = left graspable).
-    ``backend``, ``address``: where episodes run (:func:`slide_gym.bench.jobs.run_cases`).
+    ``backend``, ``address``: where episodes run (:func:`slide_gym.jobs.run_cases`).
     """
     from slide_gym import DICT_ENV_IDS
     from slide_gym.geometry import OBJECT_NAMES, get_object, get_table

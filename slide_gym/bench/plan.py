@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from slide_gym.bench.jobs import run_cases
+from slide_gym.jobs import run_cases
 
 OBJECTS = ("square", "circle", "triangle", "crescent", "irregular")
 """The paper's plan benchmark objects."""
@@ -66,7 +66,7 @@ def bench_plan(
     """Success rate against planning time per planner (resumable: results go to ``out``).
 
     ``planners`` defaults to every name in :data:`slide_gym.planning.search.PLANNERS`.
-    ``backend``, ``address``: where queries run (:func:`slide_gym.bench.jobs.run_cases`).
+    ``backend``, ``address``: where queries run (:func:`slide_gym.jobs.run_cases`).
     """
     from slide_gym.geometry import get_object, get_table
     from slide_gym.planning.result import check_time_budget

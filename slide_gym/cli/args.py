@@ -168,7 +168,7 @@ def one_line_warnings(command: str) -> Iterator[None]:
 
 def add_backend(p: argparse.ArgumentParser) -> None:
     """``--backend local|ray`` and ``--ray-address`` of the parallel jobs."""
-    from slide_gym.bench.jobs import BACKENDS
+    from slide_gym.jobs import BACKENDS
 
     add_choice(
         p,

@@ -73,7 +73,7 @@ def add_parsers(sub: Any) -> None:
     bench = sub.add_parser(
         "bench",
         help="benchmarks: env throughput, planners, expert episodes",
-        description="Benchmarks; the README's numbers come from these. Results print as JSON.\n"
+        description="Benchmarks; docs/benchmarks.md comes from these. Results print as JSON.\n"
         "Each benchmark has its own options and defaults: slide-gym bench env --help.",
         epilog=examples_epilog(
             ["slide-gym bench env", "slide-gym bench execute --trials 2 --markdown"]

@@ -275,7 +275,7 @@ def add_parsers(sub: Any) -> None:
         "plan",
         "plan one top-slide (and grasp) for an object on a table",
         "Plan a slide of the object from its start pose to a graspable overhang, and the "
-        "grasp; --json prints every field (see the README, 'Command line').",
+        "grasp; --json prints every field (see docs/planners.md, 'slide-gym plan').",
         [
             "slide-gym plan --object E --table round --seed 3",
             "slide-gym plan --object L --object-pose 0.6,0.1,0.3 --planner cbirrt2 --json",

@@ -49,6 +49,7 @@ def _add_split(p: argparse.ArgumentParser, command: str) -> None:
         metavar="NAME",
     )
 
+
 OBS_MODES = ("state", "rgbd", "pointcloud")
 """:data:`slide_gym.envs.observation.OBS_MODES`, without importing the envs for ``--help``."""
 

@@ -1,6 +1,6 @@
 """``slide-gym collect``: expert episodes into a Minari dataset, in parallel and resumably.
 
-Each episode runs as one case of :func:`slide_gym.bench.jobs.run_cases` (a process pool, or
+Each episode runs as one case of :func:`slide_gym.jobs.run_cases` (a process pool, or
 Ray tasks). As each finishes, this process writes it to its own file in the dataset's staging
 folder (``<Minari root>/.slide_gym/<id>/episodes/seed-SEED.npz``, atomically) and then a line
 to ``episodes.jsonl`` there; the seed is an episode's identity. A kill loses only the
@@ -23,10 +23,10 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from slide_gym.bench.jobs import Case, check_backend, load_results, run_cases
 from slide_gym.datasets.config import CollectConfig, check_dataset_id
 from slide_gym.datasets.recording import RecordedEpisode, record_episode
 from slide_gym.datasets.store import build_dataset, dataset_metadata, local_dataset_ids
+from slide_gym.jobs import Case, check_backend, load_results, run_cases
 from slide_gym.splits import get_split
 
 MAX_TRIES_PER_EPISODE = 20
@@ -139,7 +139,7 @@ def _build(
 ) -> dict[str, Any]:
     """Build (or keep, if it already holds exactly ``seeds``) the dataset; its summary."""
     from agents.params import EXPERT_SLIDE_PARAMS, ExpertParams
-    from slide_gym.experiments.version import code_version
+    from slide_gym.version import code_version
 
     successes = sum(r["success"] for r in tried)
     kept = [r for r in tried if r["case"]["seed"] in set(seeds)]

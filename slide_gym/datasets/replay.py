@@ -29,8 +29,8 @@ STATE_TOLERANCE = {
 }
 """``mode="states"``: what is compared one step after a restore, and the largest difference
 each may show (joint angles and rotations in rad, positions in m). Restores are approximate
-(PyBullet's contact caches are not in the state), most where fingers hold the plate; the
-README ("Datasets") gives the differences measured on expert datasets with
+(PyBullet's contact caches are not in the state), most where fingers hold the plate;
+docs/datasets.md gives the differences measured on expert datasets with
 ``slide-gym replay --mode states --json``. The check catches a wrong or mismatched state, not
 the restore's own error."""
 

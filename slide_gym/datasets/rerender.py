@@ -200,7 +200,7 @@ def _check_matched(rows: list[dict[str, Any]], dataset_id: str, meta: dict[str, 
     where = ", ".join(
         f"episode {r['case']['episode']} at step {r['step']} ({r['differs']})" for r in bad[:3]
     )
-    from slide_gym.experiments.version import code_version
+    from slide_gym.version import code_version
 
     raise ValueError(
         f"{len(bad)} of {len(rows)} episodes of {dataset_id!r} did not replay exactly: "
@@ -214,7 +214,7 @@ def _build(
 ) -> Any:
     """The new dataset from the staged episodes, with the source's metadata, the new env
     arguments and observation mode, and ``rerendered_from``."""
-    from slide_gym.experiments.version import code_version
+    from slide_gym.version import code_version
 
     meta = dataset_metadata(source)
     obs_mode = job["env_kwargs"]["obs_mode"]

@@ -20,7 +20,7 @@ from slide_gym.envs.cameras import CameraModel, capture
 SEGMENT_NAMES = ("plate", "table", "robot")
 """Point labels: a point's label is the index of its body's name here."""
 SEGMENT_BODIES = ("object", "table", "robot")
-"""The simulation's body names (:attr:`Simulation.bodies`) in label order."""
+"""The simulation's body names (:attr:`slide_gym.sim.Simulation.bodies`) in label order."""
 NUM_POINTS = 1024
 """Points of the ``"pointcloud"`` observation unless ``num_points`` is given."""
 MAX_POINTS = 65536

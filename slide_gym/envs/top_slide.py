@@ -349,7 +349,7 @@ class TopSlideEnv(gym.Env):
 
         | part | size | contents |
         |---|---|---|
-        | robot | 37 | :meth:`WamT42.get_state`: joint angles, velocities, hand controller |
+        | robot | 37 | joint angles, velocities, hand controller (``WamT42.get_state``) |
         | object | 13 | position, quaternion xyzw, linear and angular velocity of its base |
         | control | 7 (19) | the arm's joint targets (``"ee_delta"``: and its target pose) |
         | episode | 3 | hand command u, control steps the lift has held, success (0/1) |

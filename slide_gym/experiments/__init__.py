@@ -5,12 +5,10 @@ from __future__ import annotations
 
 from slide_gym.experiments.run import results_file, run_experiment, run_experiments
 from slide_gym.experiments.specs import EXPERIMENTS, LATER, experiment_cases
-from slide_gym.experiments.version import code_version
 
 __all__ = [
     "EXPERIMENTS",
     "LATER",
-    "code_version",
     "experiment_cases",
     "results_file",
     "run_experiment",

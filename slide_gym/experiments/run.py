@@ -1,5 +1,5 @@
 """Run an experiment's planning cases in parallel into one JSONL file per experiment and code
-version, resumably (:func:`slide_gym.bench.jobs.run_cases`: a line per finished query, a
+version, resumably (:func:`slide_gym.jobs.run_cases`: a line per finished query, a
 re-run skips finished ones, Ctrl-C keeps them)."""
 
 from __future__ import annotations
@@ -9,9 +9,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from slide_gym.bench.jobs import Case, check_backend, load_results, run_cases
 from slide_gym.experiments.specs import EXPERIMENTS, LATER, experiment_cases
-from slide_gym.experiments.version import code_version
+from slide_gym.jobs import Case, check_backend, load_results, run_cases
+from slide_gym.version import code_version
 
 OUT = Path("results/experiments")
 """Default results folder."""
@@ -104,7 +104,7 @@ def run_experiment(
     address: str | None = None,
 ) -> dict[str, Any]:
     """Run (or resume) experiment ``name`` into :func:`results_file`; a summary of its rows.
-    ``backend`` and ``address``: see :func:`~slide_gym.bench.jobs.run_cases`."""
+    ``backend`` and ``address``: see :func:`~slide_gym.jobs.run_cases`."""
     check_backend(backend, address)
     if name in LATER:
         implemented = ", ".join(EXPERIMENTS)

@@ -1,7 +1,7 @@
 """The paper's experiments as lists of planning cases, at full size and at ``--quick`` size.
 
 A case is one planning query: a dict of JSON values (see :func:`case`) that is also its
-identity when a run resumes (:func:`slide_gym.bench.jobs.case_key`); it carries the code
+identity when a run resumes (:func:`slide_gym.jobs.case_key`); it carries the code
 version, so finished cases of other code never count as done.
 
 Contact depth: the paper's dZ- = 0.5 cm is the least depth of the fingertip contact below the
@@ -16,9 +16,9 @@ from collections.abc import Sequence
 from typing import Any
 
 from slide_gym import EXPERT_ENV_ID
-from slide_gym.bench.jobs import Case
 from slide_gym.bench.plan import OBJECTS as PAPER_OBJECTS
 from slide_gym.geometry import TABLE_NAMES
+from slide_gym.jobs import Case
 from slide_gym.planning.params import SlideParams
 
 LETTERS = ("Y", "A", "L", "E")

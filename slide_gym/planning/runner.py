@@ -75,7 +75,7 @@ def plan_once(
 
 
 def report(problem: TopSlideProblem, result: PlanResult, planner: str, seed: int) -> dict[str, Any]:
-    """The public JSON shape of a planning result (see README, "slide-gym plan")."""
+    """The public JSON shape of a planning result (see docs/planners.md, "slide-gym plan")."""
     raw = result.to_json_dict()
     extra = raw["extra"]
     return {

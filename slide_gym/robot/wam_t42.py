@@ -57,7 +57,8 @@ FINGER_LINKS = (
     ("t42_a_proximal_link", "t42_a_distal_link"),
     ("t42_b_proximal_link", "t42_b_distal_link"),
 )
-"""Finger A's links and finger B's (only :data:`FINGER_PAIRS_KEPT` collide, see :meth:`load`)."""
+"""Finger A's links and finger B's (only :data:`FINGER_PAIRS_KEPT` collide, see
+:meth:`WamT42.load`)."""
 FINGER_PAIRS_KEPT = {("t42_a_distal_link", "t42_b_distal_link")}
 """The finger A / finger B link pairs that do collide: the tips."""
 STATE_SIZE = 2 * 11 + 3 + 12

@@ -1,5 +1,5 @@
-"""The code version stamped on every experiment row: the package version plus, in a git
-checkout, the commit and a fingerprint of uncommitted changes to the code."""
+"""The code version stamped on every experiment row and dataset: the package version plus,
+in a git checkout, the commit and a fingerprint of uncommitted changes to the code."""
 
 from __future__ import annotations
 
@@ -33,7 +33,7 @@ def code_version() -> str:
     """``VERSION+COMMIT`` (12 hex digits), then ``+dirty.HASH`` when :data:`CODE_PATHS` have
     uncommitted changes (HASH: 8 hex digits of those changes, so two different edits never
     share a version); just ``VERSION`` outside a git checkout of this package (a wheel)."""
-    package = Path(__file__).resolve().parents[1]
+    package = Path(__file__).resolve().parent
     try:
         root = Path(_git(package, "rev-parse", "--show-toplevel").strip()).resolve()
         if root != package.parent:  # e.g. a wheel inside some other repository's venv

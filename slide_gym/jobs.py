@@ -1,6 +1,6 @@
-"""Long batch jobs (benchmarks, experiments): run cases in parallel, write each result as one
-JSON line the moment it is done, skip cases already in the file on a re-run, and stop cleanly
-on Ctrl-C without losing finished work.
+"""Long batch jobs (benchmarks, experiments, dataset collection): run cases in parallel,
+write each result as one JSON line the moment it is done, skip cases already in the file on
+a re-run, and stop cleanly on Ctrl-C without losing finished work.
 
 A case is a dict of JSON values; :func:`case_key` is the one identity of a case, used both to
 skip finished cases and to pick this run's results out of a file that may hold others.

@@ -158,6 +158,7 @@ ROWS = {
             {**CATALOG, **EE},
             "slide-gym/catalog-slide-ee-v1",
             {"episodes": 400, "only_success": True},
+            ["--actions", "deltas", "--scaling", "standard", "--iterations", "10000"],
         ),
         Row(
             "dp-ee-square-slide-nofeat",

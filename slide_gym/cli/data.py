@@ -9,7 +9,14 @@ from pathlib import Path
 from typing import Any
 
 from slide_gym import DICT_ENV_IDS, EXPERT_ENV_ID
-from slide_gym.cli.args import add_backend, add_choice, add_command, check_output
+from slide_gym.cli.args import (
+    add_backend,
+    add_choice,
+    add_command,
+    add_randomization,
+    check_output,
+    parse_randomization,
+)
 from slide_gym.planning.search import PLANNERS
 
 
@@ -30,6 +37,7 @@ def _cmd_collect(args: argparse.Namespace) -> int:
         seed=args.seed,
         only_success=args.only_success,
         action_noise=args.action_noise,
+        randomization=parse_randomization(args.randomization),
     )
     summary = collect(
         config,
@@ -125,6 +133,8 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     for name in ("object", "table", "control_mode"):
         if getattr(args, name) is not None:
             env_kwargs[name] = getattr(args, name)
+    if args.randomization is not None:
+        env_kwargs["randomization"] = parse_randomization(args.randomization)
     result = evaluate(
         args.agent,
         args.env,
@@ -213,6 +223,7 @@ def add_parsers(sub: Any) -> None:
         "standard deviation (action units) and store its clean actions as labels "
         "(infos['expert_action'])",
     )
+    add_randomization(p)
     p.set_defaults(func=_cmd_collect)
 
     p = add_command(
@@ -280,6 +291,8 @@ def add_parsers(sub: Any) -> None:
             "slide-gym evaluate models/bc.zip --env SlideGym/TopSlide-v0 --episodes 20",
             "slide-gym evaluate models/dp-square --env SlideGym/TopSlide-v0 --episodes 100",
             "slide-gym evaluate regions --env SlideGym/TopSlide-v0 --episodes 20 --json",
+            "slide-gym evaluate regions --env SlideGym/TopSlide-v0 --episodes 40 "
+            "--randomization default",
         ],
     )
     p.add_argument(
@@ -303,5 +316,6 @@ def add_parsers(sub: Any) -> None:
     p.add_argument(
         "--time-budget", type=float, default=10.0, metavar="S", help="planner agents' budget"
     )
+    add_randomization(p)
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=_cmd_evaluate)

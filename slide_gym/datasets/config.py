@@ -16,6 +16,7 @@ from typing import Any
 from slide_gym import DICT_ENV_IDS
 from slide_gym.envs.control import CONTROL_MODES
 from slide_gym.envs.observation import OBS_MODES
+from slide_gym.envs.randomization import DEFAULT, parse, to_json
 from slide_gym.envs.scene import SceneChoice
 from slide_gym.planning.api import PLANNERS
 from slide_gym.planning.result import check_time_budget
@@ -55,6 +56,9 @@ class CollectConfig:
             the hand command is left alone). The dataset's ``actions`` are the executed ones
             (an exact replay needs them) and ``infos["expert_action"]`` the expert's clean
             ones, the labels a learner trains on. 0: no noise, no labels.
+        randomization: the env's domain randomisation: None, ``"default"`` or a dict of
+            key -> (low, high) or number (stored as key -> [low, high]); each episode's
+            drawn values are in its reset options.
     """
 
     env_id: str
@@ -69,6 +73,7 @@ class CollectConfig:
     seed: int = 0
     only_success: bool = False
     action_noise: float = 0.0
+    randomization: str | dict[str, list[float]] | None = None
 
     def __post_init__(self) -> None:
         if self.env_id not in DICT_ENV_IDS:
@@ -102,6 +107,9 @@ class CollectConfig:
             if isinstance(spec, str) and spec.lower().endswith(".json"):
                 object.__setattr__(self, kind, str(Path(spec).expanduser().resolve()))
         SceneChoice(self.object, self.table, self.scale, self.thickness)  # ValueError if bad
+        ranges = parse(self.randomization)
+        if self.randomization is not None and self.randomization != DEFAULT:
+            object.__setattr__(self, "randomization", to_json(ranges))  # JSON's own form
 
     def env_kwargs(self) -> dict[str, Any]:
         """The keyword arguments of ``gym.make(env_id, ...)`` (JSON values only)."""
@@ -109,14 +117,18 @@ class CollectConfig:
         if self.thickness is not None:
             kwargs["thickness"] = self.thickness
         kwargs |= {"obs_mode": self.obs_mode, "control_mode": self.control_mode}
+        if self.randomization is not None:
+            kwargs["randomization"] = self.randomization
         return kwargs
 
     def to_json(self) -> dict[str, Any]:
-        """The fields as JSON values; ``action_noise`` only when set, so that collections
-        made before the field existed keep their identity (and resume)."""
+        """The fields as JSON values; ``action_noise`` and ``randomization`` only when set, so
+        that collections made before the fields existed keep their identity (and resume)."""
         data = dataclasses.asdict(self)
         if not data["action_noise"]:
             del data["action_noise"]
+        if data["randomization"] is None:
+            del data["randomization"]
         return data
 
     @classmethod

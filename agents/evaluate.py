@@ -169,8 +169,8 @@ def evaluate(
 
     Returns:
         ``{"agent", "env_id", "env_kwargs", "episodes", "successes", "success_rate", "ci95",
-        "mean_length", "seeds", "results": [{"seed", "success", "length", "return"}],
-        "wall_time_s"}``.
+        "mean_length", "seeds", "results": [{"seed", "success", "length", "return",
+        "randomization"}], "wall_time_s"}`` (``randomization``: the episode's drawn values).
     """
     if not _is_int(episodes) or episodes < 1:
         raise ValueError(f"episodes must be a positive integer, got {episodes!r}")
@@ -211,6 +211,7 @@ def evaluate(
         for i in range(int(episodes)):
             ep_seed = int(seed) + i
             obs, info = env.reset(seed=ep_seed)
+            drawn = info["randomization"]
             expert = _planner_agent(planner, env, ep_seed, time_budget) if planner else None
             steps, total, terminated, truncated = 0, 0.0, False, False
             try:
@@ -230,7 +231,15 @@ def evaluate(
                     expert.close()
             # the envs terminate on success: an episode cut by max_steps has not succeeded
             success = bool((terminated or truncated) and info["is_success"])
-            results.append({"seed": ep_seed, "success": success, "length": steps, "return": total})
+            results.append(
+                {
+                    "seed": ep_seed,
+                    "success": success,
+                    "length": steps,
+                    "return": total,
+                    "randomization": drawn,
+                }
+            )
             if progress:
                 done = sum(r["success"] for r in results)
                 print(

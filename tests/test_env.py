@@ -27,6 +27,7 @@ INFO_KEYS = {
     "object",
     "table",
     "reward_terms",
+    "randomization",
 }
 
 

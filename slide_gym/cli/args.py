@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import json
 import sys
 import textwrap
 import warnings
@@ -186,6 +187,33 @@ def add_backend(p: argparse.ArgumentParser) -> None:
         help="the Ray cluster to use with --backend ray (default: start a local Ray instance "
         "with --workers CPUs)",
     )
+
+
+def add_randomization(p: argparse.ArgumentParser) -> None:
+    """``--randomization default|JSON``: the env's domain randomisation (see
+    :func:`parse_randomization`)."""
+    p.add_argument(
+        "--randomization",
+        metavar="default|JSON",
+        help="domain randomisation per episode, drawn from the reset seed: 'default' (ranges "
+        "the expert solves) or a JSON object of key: [low, high] or key: value, keys "
+        "plate_table_friction, pad_friction, plate_density (kg/m^3), plate_thickness (m), "
+        "table_height (m), finger_stiffness (N m/rad) (default: none, the fixed world)",
+    )
+
+
+def parse_randomization(text: str | None) -> str | dict[str, Any] | None:
+    """The value of ``--randomization``: None, ``"default"`` or a checked JSON object."""
+    from slide_gym.envs.randomization import DEFAULT, parse
+
+    if text is None or text == DEFAULT:
+        return text
+    try:
+        spec = json.loads(text)
+    except json.JSONDecodeError:
+        spec = text  # parse() says what is allowed
+    parse(spec, "--randomization")
+    return spec
 
 
 def parse_floats(text: str, n: int, what: str) -> tuple[float, ...]:

@@ -14,8 +14,10 @@ from slide_gym.cli.args import (
     add_choice,
     add_command,
     add_env,
+    add_randomization,
     check_output,
     one_line_warnings,
+    parse_randomization,
 )
 from slide_gym.planning.search import PLANNERS
 from slide_gym.splits import SPLIT_NAMES, SPLITS, TEST_SEED, TRAIN_SEED, VALIDATION_SEED
@@ -73,6 +75,7 @@ def _cmd_collect(args: argparse.Namespace) -> int:
         only_success=args.only_success,
         action_noise=args.action_noise,
         split=args.split,
+        randomization=parse_randomization(args.randomization),
     )
     summary = collect(
         config,
@@ -198,6 +201,8 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
     for name in ("object", "table", "control_mode"):
         if getattr(args, name) is not None:
             env_kwargs[name] = getattr(args, name)
+    if args.randomization is not None:
+        env_kwargs["randomization"] = parse_randomization(args.randomization)
     with one_line_warnings("evaluate"):
         result = evaluate(
             args.agent,
@@ -292,6 +297,7 @@ def add_parsers(sub: Any) -> None:
         "standard deviation (action units) and store its clean actions as labels "
         "(infos['expert_action'])",
     )
+    add_randomization(p)
     p.set_defaults(func=_cmd_collect)
 
     p = add_command(
@@ -386,6 +392,8 @@ def add_parsers(sub: Any) -> None:
             "slide-gym evaluate models/bc.zip --env SlideGym/TopSlide-v0 --episodes 20",
             "slide-gym evaluate models/dp-square --env SlideGym/TopSlide-v0 --episodes 100",
             "slide-gym evaluate regions --env SlideGym/TopSlide-v0 --episodes 20 --json",
+            "slide-gym evaluate regions --env SlideGym/TopSlide-v0 --episodes 40 "
+            "--randomization default",
         ],
     )
     p.add_argument(
@@ -412,5 +420,6 @@ def add_parsers(sub: Any) -> None:
     p.add_argument(
         "--time-budget", type=float, default=10.0, metavar="S", help="planner agents' budget"
     )
+    add_randomization(p)
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=_cmd_evaluate)

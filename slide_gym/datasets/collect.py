@@ -26,6 +26,7 @@ import numpy as np
 from slide_gym.datasets.config import CollectConfig, check_dataset_id
 from slide_gym.datasets.recording import RecordedEpisode, record_episode
 from slide_gym.datasets.store import build_dataset, dataset_metadata, local_dataset_ids
+from slide_gym.envs.randomization import parse, to_json
 from slide_gym.jobs import Case, check_backend, load_results, run_cases
 from slide_gym.splits import get_split
 
@@ -155,6 +156,7 @@ def _build(
             "expert_params": dataclasses.asdict(ExpertParams()),
             "slide_params": dataclasses.asdict(EXPERT_SLIDE_PARAMS),
         },
+        "randomization": to_json(parse(config.randomization)),
         "code_version": code_version(),
         "seeds": seeds,
         "episodes_run": len(tried),

@@ -16,6 +16,7 @@ from typing import Any
 from slide_gym import DICT_ENV_IDS
 from slide_gym.envs.control import CONTROL_MODES
 from slide_gym.envs.observation import OBS_MODES
+from slide_gym.envs.randomization import DEFAULT, parse, to_json
 from slide_gym.envs.scene import SceneChoice
 from slide_gym.planning.api import PLANNERS
 from slide_gym.planning.result import check_time_budget
@@ -58,6 +59,9 @@ class CollectConfig:
             ones, the labels a learner trains on. 0: no noise, no labels.
         split: the named split (:mod:`slide_gym.splits`) the episodes come from, or None;
             then ``object`` is the split's and every seed stays in its collect seeds.
+        randomization: the env's domain randomisation: None, ``"default"`` or a dict of
+            key -> (low, high) or number (stored as key -> [low, high]); each episode's
+            drawn values are in its reset options.
     """
 
     env_id: str
@@ -73,6 +77,7 @@ class CollectConfig:
     only_success: bool = False
     action_noise: float = 0.0
     split: str | None = None
+    randomization: str | dict[str, list[float]] | None = None
 
     def __post_init__(self) -> None:
         if self.env_id not in DICT_ENV_IDS:
@@ -113,6 +118,9 @@ class CollectConfig:
                     f"split {split.name!r} collects object {split.object!r}, not {self.object!r}"
                 )
             split.first_seed("collect", 1, self.seed)
+        ranges = parse(self.randomization)
+        if self.randomization is not None and self.randomization != DEFAULT:
+            object.__setattr__(self, "randomization", to_json(ranges))  # JSON's own form
 
     def env_kwargs(self) -> dict[str, Any]:
         """The keyword arguments of ``gym.make(env_id, ...)`` (JSON values only)."""
@@ -120,15 +128,20 @@ class CollectConfig:
         if self.thickness is not None:
             kwargs["thickness"] = self.thickness
         kwargs |= {"obs_mode": self.obs_mode, "control_mode": self.control_mode}
+        if self.randomization is not None:
+            kwargs["randomization"] = self.randomization
         return kwargs
 
     def to_json(self) -> dict[str, Any]:
-        """The fields as JSON values; ``action_noise`` and ``split`` only when set, so that
-        collections made before those fields existed keep their identity (and resume)."""
+        """The fields as JSON values; ``action_noise``, ``split`` and ``randomization`` only
+        when set, so that collections made before those fields existed keep their identity
+        (and resume)."""
         data = dataclasses.asdict(self)
         for name in ("action_noise", "split"):
             if not data[name]:
                 del data[name]
+        if data["randomization"] is None:
+            del data["randomization"]
         return data
 
     @classmethod

@@ -113,7 +113,8 @@ class RecordedEpisode:
 
 def reset_options(env: gym.Env, config: CollectConfig) -> dict[str, Any]:
     """The options that make ``reset(seed, options)`` start the episode the env just started
-    (after a reset with the same seed): its object, table, scale and start pose."""
+    (after a reset with the same seed): its object, table, scale, start pose and the
+    randomisation values it drew (if any)."""
     base = env.unwrapped
     obj = config.object
     if obj == "random":
@@ -123,6 +124,8 @@ def reset_options(env: gym.Env, config: CollectConfig) -> dict[str, Any]:
     if config.thickness is not None:
         options["thickness"] = float(config.thickness)
     options["object_pose"] = [float(v) for v in base.start_pose]
+    if base.randomization_values:
+        options["randomization"] = dict(base.randomization_values)
     return options
 
 

@@ -26,7 +26,15 @@ from slide_gym.geometry.catalog import unknown_name
 from slide_gym.geometry.shapes import check_thickness
 from slide_gym.task import PROCEDURAL, RANDOM, check_scene, fit_procedural_object
 
-RESET_OPTIONS = ("object", "table", "scale", "thickness", "object_pose", "arm_qpos")
+RESET_OPTIONS = (
+    "object",
+    "table",
+    "scale",
+    "thickness",
+    "object_pose",
+    "arm_qpos",
+    "randomization",
+)
 """Keys ``reset(options=...)`` accepts."""
 
 

@@ -10,6 +10,14 @@ import numpy as np
 from slide_gym.envs.cameras import RENDER_SIZE, Camera, CameraModel, image_size, render_frame
 from slide_gym.envs.control import make_control
 from slide_gym.envs.observation import OBS_MODES, make_observation
+from slide_gym.envs.randomization import (
+    apply_to_scene,
+    apply_to_world,
+    draw,
+    episode_rng,
+    hand_params,
+    parse,
+)
 from slide_gym.envs.reward import DenseReward, sparse_terms
 from slide_gym.envs.scene import RESET_OPTIONS, SceneChoice
 from slide_gym.geometry import ObjectShape, TableShape
@@ -141,7 +149,32 @@ class TopSlideEnv(gym.Env):
       name what was drawn;
     - ``object_pose``: ``(x, y, yaw)`` of the object (m, rad), instead of the random pose;
     - ``arm_qpos``: the arm's 7 joint angles (rad, within the joint limits) instead of the
-      ready pose.
+      ready pose;
+    - ``randomization``: a dict as the argument below (or ``"default"``) for this episode,
+      over the env's own: the keys it names replace the env's ranges (a number sets that
+      exact value), the others keep them.
+
+    ## Domain Randomisation
+    ``randomization`` (see Arguments) draws per episode, uniformly within each range:
+
+    | key | unit | allowed | ``"default"`` |
+    |---|---|---|---|
+    | ``plate_table_friction`` | - | 0.01-2 | 0.24-0.40 (fixed world: 0.32) |
+    | ``pad_friction`` | - | 0.05-3 | 0.8-1.2 (1.0), finger pads on the plate |
+    | ``plate_density`` | kg/m^3 | 100-10000 | 800-1600 (the plate's, 1200) |
+    | ``plate_thickness`` | m | 0.0003-0.05 | 0.003-0.005 (the plate's, 0.004) |
+    | ``table_height`` | m | -0.10-0.05 | -0.05-0.03 (the table's, 0) |
+    | ``finger_stiffness`` | N m/rad | 0.3-6 | 0.9-1.5 (1.2), proximal; distal twice it |
+
+    Frictions are those of the contact pair (PyBullet multiplies the bodies' coefficients:
+    the table's and the finger links' are set to the pair's over the plate's 0.8). Values
+    come from a generator seeded with the reset seed, apart from ``np_random``: the same seed
+    gives the same draws, scene and start pose (resets without a seed continue the
+    generator). ``info["randomization"]`` holds the episode's values (``{}`` without
+    randomisation); ``reset(options={"randomization": info["randomization"]})`` with the
+    seed starts the episode again. A drawn thickness or table height replaces the shape's
+    (``env.unwrapped.task.object`` and ``.table`` are the episode's shapes), and the
+    ``table_height`` observation shows it.
 
     ## Episode End
     ``goal="slide"`` succeeds when the object rests in a graspable pose (overhang ``u >= u*``
@@ -177,6 +210,10 @@ class TopSlideEnv(gym.Env):
       fields (``{"table_friction": 0.2}``).
     - ``control_mode``: ``"joint_delta"`` (default) or ``"ee_delta"`` (see Action Space), with
       ``max_tip_step`` (m per control step, default 0.01) and ``max_rot_step`` (rad, 0.05).
+    - ``randomization``: ``None`` (default: the fixed world), ``"default"`` (every key over
+      the ranges above that the expert still solves) or a dict of key -> ``(low, high)`` or
+      number (see Domain Randomisation); a ValueError names a bad key or value and what is
+      allowed.
     """
 
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 20}
@@ -202,6 +239,7 @@ class TopSlideEnv(gym.Env):
         render_height: int | None = None,
         camera: Camera | dict[str, Any] | None = None,
         num_points: int | None = None,
+        randomization: str | dict[str, Any] | None = None,
     ):
         if goal not in ("slide", "grasp"):
             raise ValueError(f"goal must be 'slide' or 'grasp', got {goal!r}")
@@ -233,10 +271,16 @@ class TopSlideEnv(gym.Env):
         )
 
         self.scene = SceneChoice(object, table, scale, thickness)
+        self.randomization = parse(randomization)
+        """The env's randomisation ranges, key -> (low, high) (an exact value: low == high)."""
+        self.randomization_values: dict[str, float] = {}
+        """The values the last reset drew (``info["randomization"]``)."""
+        self._randomization_rng: np.random.Generator | None = None
 
         self.task = TopSlideTask(task_params)
         self.sim = Simulation(render_mode, PhysicsParams(timestep=1.0 / physics_hz))
         self.robot = WamT42(self.sim)
+        self._hand = self.robot.hand
         self._u = 0.0
         self._state: SceneState | None = None
         self._lift_steps = 0  # consecutive control steps the object has been held up
@@ -288,6 +332,9 @@ class TopSlideEnv(gym.Env):
             raise ValueError(
                 f"unknown reset options {sorted(unknown)}; allowed: {', '.join(RESET_OPTIONS)}"
             )
+        ranges = self.randomization | parse(
+            options.get("randomization"), "reset option randomization"
+        )
         choice = self.scene.with_options(options)
         obj, table = choice.draw(self.np_random, seed, p.start_margin)
         if options.get("object_pose") is not None:
@@ -295,6 +342,8 @@ class TopSlideEnv(gym.Env):
         else:
             pose = sample_start_pose(obj, table, self.np_random, p.start_margin)
         self.start_pose = np.asarray(pose, dtype=float).copy()
+        values = self.randomization_values = self._draw_randomization(ranges, seed)
+        obj, table = apply_to_scene(values, obj, table)
         arm_q = np.array(READY_ARM_Q, dtype=float)
         if options.get("arm_qpos") is not None:
             arm_q = np.asarray(options["arm_qpos"], dtype=float).reshape(-1)
@@ -309,6 +358,8 @@ class TopSlideEnv(gym.Env):
         self.sim.clear()
         self.robot.load()
         self.task.build(self.sim, obj, table, pose)
+        apply_to_world(values, self.sim, self.robot, p.object_friction)
+        self.robot.set_hand(hand_params(values, self._hand))
         self.robot.reset(arm_q)
         self.control.reset(arm_q)
         self._u = 0.0
@@ -424,6 +475,21 @@ class TopSlideEnv(gym.Env):
         u, lift_steps, success = s[c:]
         self._u, self._lift_steps, self._is_success = float(u), int(lift_steps), bool(success)
 
+    def _draw_randomization(
+        self, ranges: dict[str, tuple[float, float]], seed: int | None
+    ) -> dict[str, float]:
+        """This episode's values of ``ranges``, from the generator of the last reset seed
+        (:func:`~slide_gym.envs.randomization.episode_rng`), which resets without a seed
+        continue."""
+        if seed is not None:
+            self._randomization_rng = None
+        if not ranges:
+            return {}
+        if self._randomization_rng is None:
+            first = self.np_random_seed  # -1 if np_random was set directly: fresh entropy
+            self._randomization_rng = episode_rng(first) if first >= 0 else np.random.default_rng()
+        return draw(ranges, self._randomization_rng)
+
     def _command_arm(self, target: np.ndarray) -> int:
         """Pick this control period's physics settings (:meth:`Simulation.adapt`: full ones
         near the object, ``free_step_factor`` times longer steps while the robot is free),
@@ -482,6 +548,7 @@ class TopSlideEnv(gym.Env):
             "object": self.task.object.name,
             "table": self.task.table.name,
             "reward_terms": dict(self._reward_terms),
+            "randomization": dict(self.randomization_values),
         }
 
     def _observation(self) -> dict[str, np.ndarray]:

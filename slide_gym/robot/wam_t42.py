@@ -89,7 +89,6 @@ class WamT42:
         arm_gains: ArmGains = _DEFAULT_GAINS,
     ):
         self.sim = sim
-        self.hand = hand
         self.arm_gains = arm_gains
         self.body = -1
         self._u = 0.0  # commanded tendon level
@@ -102,10 +101,7 @@ class WamT42:
         self._arm_dof = np.zeros(7, dtype=int)  # positions within _movable
         self._finger_dof = np.zeros(4, dtype=int)
         self._inertia_coeffs = (0.0, 0.0, 0.0, 0.0)
-        h = hand
-        self._hand_coeffs = tuple(
-            tuple(float(v) for v in arr) for arr in (h.stiffness, h.damping, h.rest, h.tendon)
-        )
+        self.set_hand(hand)
         self._zeros: list[float] = []
         self._arm_dof_limits: list[tuple[int, float]] = []
         self._finger_dof_list: list[int] = []
@@ -115,6 +111,14 @@ class WamT42:
         self._base_pose: tuple = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
 
     # ------------------------------------------------------------------ set-up
+    def set_hand(self, hand: HandParams) -> None:
+        """Use ``hand``'s spring and tendon model from the next physics step on."""
+        self.hand = hand
+        self._hand_coeffs = tuple(
+            tuple(float(v) for v in arr)
+            for arr in (hand.stiffness, hand.damping, hand.rest, hand.tendon)
+        )
+
     def load(self) -> int:
         """Load the URDF as body ``"robot"`` (fixed base at the origin); return its id."""
         c = self.sim.client

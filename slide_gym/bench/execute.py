@@ -182,21 +182,17 @@ def _group(rows: Sequence[dict[str, Any]], key: str, order: Sequence[str]) -> di
 
 def failure_kind(row: dict[str, Any]) -> str | None:
     """A failed episode's cause without its numbers, for counting (None for a success)."""
-    if row.get("success"):
+    from agents.outcome import row_failure
+
+    failure = row_failure(row)
+    if failure is None:
         return None
-    phase = row.get("phase_reached")
-    if row.get("fell_off"):
-        return f"the plate fell off the table ({phase})"
-    failure = row.get("failure")
-    if failure:
-        failure = re.sub(r" after \d+ iterations.*| \(.*\)$", "", str(failure))
-        return re.sub(r"\d+(\.\d+)?", "N", failure)
-    if row.get("truncated"):
-        return f"out of episode time ({phase})"
-    return f"ended without a lift ({phase})"
+    failure = re.sub(r" after \d+ iterations.*| \(.*\)$", "", failure)
+    return re.sub(r"\d+(\.\d+)?", "N", failure)
 
 
-def _failures(rows: Sequence[dict[str, Any]]) -> dict[str, int]:
+def failure_counts(rows: Sequence[dict[str, Any]]) -> dict[str, int]:
+    """Failed rows counted by :func:`failure_kind`, the most frequent first."""
     kinds = Counter(k for k in map(failure_kind, rows) if k is not None)
     return dict(kinds.most_common())
 
@@ -226,7 +222,7 @@ def summarize_execute(results: Sequence[dict[str, Any]]) -> dict[str, Any]:
         "slide_error_deg_median": _scaled(error_rad, 180.0 / math.pi),
         "by_object": _group(results, "object", OBJECT_NAMES),
         "by_table": _group(results, "table", TABLE_NAMES),
-        "failures": _failures(results),
+        "failures": failure_counts(results),
     }
 
 
@@ -264,6 +260,6 @@ def execute_markdown_table(summary: dict[str, Any]) -> str:
                 f"| {_fmt(row['wall_time_s_median'], '.1f')} |"
             )
     if summary["failures"]:
-        lines += ["", "| failure (phase) | episodes |", "|---|---:|"]
+        lines += ["", "| failure | episodes |", "|---|---:|"]
         lines += [f"| {kind} | {n} |" for kind, n in summary["failures"].items()]
     return "\n".join(lines) + "\n"

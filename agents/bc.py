@@ -89,7 +89,9 @@ def load_pairs(
     has no action and is dropped): float32 observation arrays by key, the actions, and the
     number of episodes. ``only_success``: leave out episodes whose ``success`` flag is unset
     (a failed or idle expert episode teaches the wrong thing; an episode without the flag,
-    from another tool, is kept)."""
+    from another tool, is kept). Unlike :func:`agents.learned.data.load_demonstrations`, a
+    failed DAgger rollout is left out too: behaviour cloning fits the executed actions,
+    which there are the learner's."""
     obs: dict[str, list[np.ndarray]] = {}
     actions: list[np.ndarray] = []
     episodes = 0
@@ -112,8 +114,10 @@ def load_pairs(
         actions.append(np.asarray(ep.actions, np.float32).reshape(n, -1))
         episodes += 1
     if not actions or sum(len(a) for a in actions) == 0:
+        which = "successful episode" if only_success else "episode"
         raise ValueError(
-            "the dataset has no successful episode with steps (collect with --only-success)"
+            f"the dataset has no {which} with steps (collect with --only-success"
+            + (", or train with --no-only-success)" if only_success else ")")
         )
     return {k: np.concatenate(v) for k, v in obs.items()}, np.concatenate(actions), episodes
 
@@ -136,6 +140,7 @@ def train_bc(
     env: gym.Env | None = None,
     log_every: int = 0,
     normalize_obs: bool = True,
+    only_success: bool = True,
 ) -> tuple[PPO, dict[str, Any]]:
     """Behaviour cloning: ``steps`` Adam steps on the mean negative log-likelihood of the
     dataset's actions under a ``PPO("MultiInputPolicy")`` actor (MLP 256-256, state-independent
@@ -152,11 +157,14 @@ def train_bc(
         log_every: print the mean loss every this many steps to stderr (0: never).
         normalize_obs: standardise observations with the dataset's statistics inside the
             policy (:class:`NormalizedFlattenExtractor`, saved with the model).
+        only_success: fit only the episodes whose ``success`` flag is set (see
+            :func:`load_pairs`); False: every episode, failed and idle ones too.
 
     Returns:
         The model and ``{"steps", "final_loss" (mean of the last tenth of the steps, at most
         100), "initial_loss" (the first minibatch, before any update), "train_time_s",
-        "frames", "episodes", "batch_size", "learning_rate", "seed", "normalize_obs"}``.
+        "frames", "episodes", "batch_size", "learning_rate", "seed", "normalize_obs",
+        "only_success"}``.
     """
     for name, value in (("steps", steps), ("batch_size", batch_size)):
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
@@ -170,7 +178,7 @@ def train_bc(
     torch.set_num_threads(1)
     env = dataset.recover_environment() if env is None else env
     _check_spaces(dataset, env)
-    obs, actions, episodes = load_pairs(dataset)
+    obs, actions, episodes = load_pairs(dataset, only_success)
     actions = np.clip(actions, -1 + ACTION_EPS, 1 - ACTION_EPS).astype(np.float32)
     frames = len(actions)
 
@@ -219,6 +227,7 @@ def train_bc(
         "learning_rate": float(learning_rate),
         "seed": int(seed),
         "normalize_obs": bool(normalize_obs),
+        "only_success": bool(only_success),
     }
     return model, stats
 

@@ -13,6 +13,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium.utils import seeding as gym_seeding
 
+from agents.outcome import Outcome, failure_cause
 from agents.params import ExpertParams
 from agents.planner_agent import PlannerAgent
 from agents.record import EpisodeRecord
@@ -123,10 +124,12 @@ def play_episode(
     perturb: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> EpisodeRecord:
     """Reset ``env`` with ``seed`` and ``options``, let ``agent`` act until the episode ends,
-    and return its record. ``frames`` collects ``env.render()`` every :data:`VIDEO_EVERY`
-    steps; ``on_reset(obs, info)`` and ``on_step`` see every observation. ``perturb(action)``
-    gives the action executed instead of the agent's (DART's noise); ``on_step`` sees the
-    executed one."""
+    and return its record. The episode also ends, truncated, on the step the expert gives up
+    (an infeasible plan, the planning budget spent, ...): it would only hold still until the
+    time limit. ``frames`` collects ``env.render()`` every :data:`VIDEO_EVERY` steps;
+    ``on_reset(obs, info)`` and ``on_step`` see every observation (``on_step`` the
+    truncation of a give-up too). ``perturb(action)`` gives the action executed instead of
+    the agent's (DART's noise); ``on_step`` sees the executed one."""
     base = env.unwrapped
     wall = time.perf_counter()
     obs, info = env.reset(seed=seed, options=options)
@@ -135,12 +138,18 @@ def play_episode(
     start = info["object_pose_2d"]
     if frames is not None:
         frames.append(env.render())
+    outcome = Outcome(base.goal)
+    outcome.update(info)
     steps, max_lift, terminated, truncated = 0, 0.0, False, False
     while not (terminated or truncated):
         action, _ = agent.predict(obs, episode_start=np.array([steps == 0]))
         if perturb is not None:
             action = perturb(np.asarray(action))
         obs, reward, terminated, truncated, info = env.step(action)
+        expert = agent.expert(0)
+        assert expert is not None
+        truncated = bool(truncated) or (expert.report.gave_up is not None and not terminated)
+        outcome.update(info, truncated)
         if on_step is not None:
             on_step(action, obs, float(reward), terminated, truncated, info)
         steps += 1
@@ -149,6 +158,16 @@ def play_episode(
             frames.append(env.render())
     expert = agent.expert(0)
     assert expert is not None
+    success = bool(info["is_success"])
+    params = base.task.params
+    failure = failure_cause(
+        success,
+        outcome,
+        expert.phase,
+        expert.report.gave_up,
+        lift_height=params.lift_height,
+        hold_s=params.lift_hold_s,
+    )
     return EpisodeRecord(
         object=base.task.object.name,
         table=base.task.table.name,
@@ -156,7 +175,8 @@ def play_episode(
         seed=int(seed),
         planner=agent.planner,
         env_id=env.spec.id if env.spec is not None else "",
-        success=bool(info["is_success"]),
+        success=success,
+        failure=failure,
         expert=expert.report,
         phase_reached=expert.phase,
         steps=steps,
@@ -166,6 +186,8 @@ def play_episode(
         object_final_pose=[float(v) for v in info["object_pose_2d"]],
         lift_height_m=float(info["lift_m"]),
         max_lift_height_m=max_lift,
+        clearance_m=outcome.clearance_m,
+        max_clearance_m=outcome.max_clearance_m,
         fell_off=bool(info["fell_off"]),
         truncated=bool(truncated),
     )

@@ -25,7 +25,8 @@ it lies (as a replan is); anything else is planned as at the start.
 
 Same seed, same episode, on any machine: every planning step is capped by a count
 (``ExpertParams.strict_plan_iterations``, ``grasp_iterations``, ``route_iterations``); the
-planning budget only decides when the expert gives up (``failure`` says so).
+planning budget only decides when the expert gives up (``report.gave_up`` says why; it then
+holds still, and :func:`agents.episode.play_episode` ends the episode).
 """
 
 from __future__ import annotations
@@ -196,7 +197,7 @@ class SlideGraspExpert:
             self._fail(f"nothing follows phase {self.phase!r}")
 
     def _fail(self, why: str) -> None:
-        self.report.failure = why
+        self.report.gave_up = why
         self.phase = "failed"
         self.queue.clear()
         if self.planner is not None:
@@ -310,7 +311,9 @@ class SlideGraspExpert:
             if result.status is PlanStatus.TIMEOUT:
                 return self._fail(f"planning budget used up ({name} plan: {result.reason})")
         else:
-            return self._fail(f"planner: {result.reason}")
+            if result.status is PlanStatus.INFEASIBLE:
+                return self._fail(f"plan infeasible: {result.reason}")
+            return self._fail(f"no plan, {result.status.value}: {result.reason}")
         self.report.planned = True
         self.object_start = pose
         self.result = result

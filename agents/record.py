@@ -27,7 +27,7 @@ class ExpertReport:
             ran, the scene was rejected).
         plan_status: status of the last planner query (``"solved"``, ``"timeout"``,
             ``"iteration_limit"``, ``"infeasible"``), ``None`` before any.
-        failure: why the expert gave up (or why the scene was rejected), ``None`` otherwise.
+        gave_up: why the expert gave up (it then stops acting), ``None`` if it did not.
         events: notable moments, in order (failed plan attempts, pull-backs, slide checks).
         phase_steps: ``(phase, step)`` each time a phase begins: the env step (0 = the first
             action) of its first action, in order (a replan's phases appear again).
@@ -41,7 +41,7 @@ class ExpertReport:
     replans: int = 0
     planning_time_s: float | None = 0.0
     plan_status: str | None = None
-    failure: str | None = None
+    gave_up: str | None = None
     events: list[str] = field(default_factory=list)
     phase_steps: list[tuple[str, int]] = field(default_factory=list)
     object_predicted_pose: list[float] | None = None
@@ -62,12 +62,18 @@ class EpisodeRecord:
         env_id: the environment the episode ran in.
         success: the env's ``is_success`` at the end (for the grasp envs: the object lifted
             in the fingers; for the slide envs: left graspable).
+        failure: why the episode failed (:func:`agents.outcome.failure_cause`: fell off, the
+            expert's reason for giving up, out of time, or the plate's state at the end; why
+            the scene was rejected), ``None`` exactly when it succeeded.
         steps: env steps; ``sim_time_s``: simulated seconds; ``wall_time_s``: real seconds
             (``None`` if no episode ran).
         object_start_pose, object_final_pose: ``[x, y, yaw]`` at reset and at the end.
-        lift_height_m: the object's height above the table at the end;
-            ``max_lift_height_m``: the most during the episode.
-        fell_off: the object fell off the table; ``truncated``: the episode hit its time limit.
+        lift_height_m: how far the object's bottom-face centre rose above the table top, at
+            the end; ``max_lift_height_m``: the most during the episode.
+        clearance_m: the object's lowest point above the table top at the end (the lift test
+            needs ``TaskParams.lift_height``, 5 cm); ``max_clearance_m``: the most.
+        fell_off: the object fell off the table; ``truncated``: the episode hit its time limit
+            or was ended when the expert gave up.
         video: path of the recorded video, if any.
         expert: the expert's :class:`ExpertReport`.
     """
@@ -79,6 +85,7 @@ class EpisodeRecord:
     planner: str
     env_id: str = EXPERT_ENV_ID
     success: bool = False
+    failure: str | None = None
     expert: ExpertReport = field(default_factory=ExpertReport)
     phase_reached: str
     steps: int = 0
@@ -88,6 +95,8 @@ class EpisodeRecord:
     object_final_pose: list[float] | None = None
     lift_height_m: float | None = None
     max_lift_height_m: float | None = None
+    clearance_m: float | None = None
+    max_clearance_m: float | None = None
     fell_off: bool = False
     truncated: bool = False
     video: str | None = None
@@ -113,7 +122,8 @@ class EpisodeRecord:
             planner=planner,
             env_id=env_id,
             phase_reached="rejected",
-            expert=ExpertReport(planning_time_s=None, failure=str(reason)),
+            failure=str(reason),
+            expert=ExpertReport(planning_time_s=None),
         )
 
     def to_json_dict(self) -> dict[str, Any]:

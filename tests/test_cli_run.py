@@ -297,7 +297,7 @@ def test_bench_execute_rejects_bad_input(
 
 
 def test_failures_are_counted_by_cause_without_their_numbers() -> None:
-    from slide_gym.bench.execute import failure_kind
+    from agents.outcome import failure_kind
 
     base = {"success": False, "fell_off": False, "truncated": False, "phase_reached": "failed"}
     rows = [
@@ -310,8 +310,8 @@ def test_failures_are_counted_by_cause_without_their_numbers() -> None:
     assert [failure_kind(r) for r in rows] == [
         "planner: time budget exhausted",
         "planner: time budget exhausted",
-        "the plate fell off the table (slide)",
-        "out of episode time (lift_off)",
+        "the plate fell off the table in phase slide",
+        "out of episode time in phase lift_off",
         None,
     ]
     summary = summarize_execute(
@@ -319,7 +319,7 @@ def test_failures_are_counted_by_cause_without_their_numbers() -> None:
     )
     assert summary["failures"] == {
         "planner: time budget exhausted": 2,
-        "the plate fell off the table (slide)": 1,
-        "out of episode time (lift_off)": 1,
+        "the plate fell off the table in phase slide": 1,
+        "out of episode time in phase lift_off": 1,
     }
     assert "| planner: time budget exhausted | 2 |" in execute_markdown_table(summary)

@@ -79,6 +79,30 @@ def test_replay_notices_a_changed_action(collected, monkeypatch):
     assert not results[0].matched and results[0].first_mismatch == 11
 
 
+def test_replay_states_is_approximate_and_catches_a_wrong_state(collected, monkeypatch, capsys):
+    """A step restored from another step's state (5 steps earlier, the arm still moving)
+    differs beyond the measured worst case; the output calls the mode approximate."""
+    from slide_gym.datasets import replay as replay_module
+
+    real = replay_module.read_episodes
+
+    def shifted(dataset, indices):
+        for e in real(dataset, indices):
+            e.infos = {**e.infos, "sim_state": e.infos["sim_state"].copy()}
+            e.infos["sim_state"][20] = e.infos["sim_state"][15]
+            yield e
+
+    monkeypatch.setattr(replay_module, "read_episodes", shifted)
+    assert main(["replay", DATASET, "--mode", "states", "--episodes", "1"]) == 1
+    lines = capsys.readouterr().out.splitlines()
+    assert "differs beyond the tolerance from step 21;" in lines[0]
+    assert lines[-1].startswith("0 of 1 episodes match (states replay, approximate: ")
+    assert main(["replay", DATASET, "--mode", "states", "--episodes", "1", "--json"]) == 1
+    (result,) = json.loads(capsys.readouterr().out)
+    assert result["approximate"] is True and result["first_mismatch"] == 21
+    assert result["max_errors"]["arm_qpos"] > replay_module.STATE_TOLERANCE["arm_qpos"]
+
+
 def test_more_episodes_continue_the_collection(collected):
     progress = staging_dir(DATASET) / "episodes.jsonl"
     assert _collect("--episodes", "4", "--workers", "1", "--dataset-id", DATASET) == 0

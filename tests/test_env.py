@@ -22,6 +22,7 @@ INFO_KEYS = {
     "lift_held_s",
     "touching_robot",
     "touching_table",
+    "pinched",
     "fell_off",
     "object_pose_2d",
     "object",

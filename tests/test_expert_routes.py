@@ -61,7 +61,7 @@ def test_blocked_approach_takes_a_planned_collision_free_route(
     seen, real_route_free = blocked_straight_approaches
     env, agent, expert, _ = _first_action(plan_budget)
     try:
-        assert expert.phase == "approach", expert.report.failure
+        assert expert.phase == "approach", expert.report.gave_up
         assert seen["rejected"] >= 2  # the direct and the raised routes were both refused
         assert any("planned route" in e for e in expert.report.events)
         ((planner, route, args, why),) = seen["planned"]
@@ -84,8 +84,8 @@ def test_no_free_approach_fails_with_a_reason(blocked_straight_approaches, monke
     env, agent, expert, action = _first_action(60.0)
     try:
         assert expert.phase == "failed"
-        assert "no collision-free approach" in expert.report.failure
-        assert "stub: no route" in expert.report.failure
+        assert "no collision-free approach" in expert.report.gave_up
+        assert "stub: no route" in expert.report.gave_up
         assert not [s for s in seen["segments"] if s.name == "approach"]
         assert np.all(action[:7] == 0.0)  # the arm holds still
     finally:

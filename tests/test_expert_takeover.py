@@ -58,7 +58,7 @@ def _take_over(env_id: str, actions: list, k: int) -> tuple[dict, list[str], str
         fresh = PlannerAgent("regions", 60.0, seed=SEED)
         info = _finish(env, fresh, obs)
         expert = fresh.expert(0)
-        events, failure = list(expert.report.events), expert.report.failure
+        events, failure = list(expert.report.events), expert.report.gave_up
         fresh.close()
         return info, events, failure
     finally:
@@ -112,7 +112,7 @@ def test_from_another_arm_pose_within_the_limits():
         obs, _ = env.reset(seed=SEED, options={"arm_qpos": arm})
         agent = PlannerAgent("regions", 60.0, seed=SEED)
         info = _finish(env, agent, obs)
-        assert agent.expert(0).report.failure is None and info["is_success"]
+        assert agent.expert(0).report.gave_up is None and info["is_success"]
         agent.close()
     finally:
         env.close()

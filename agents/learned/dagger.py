@@ -135,7 +135,7 @@ def rollout_case(case: dict[str, Any]) -> dict[str, Any]:
                 failed = slot is not None and slot.phase == "failed"
                 failures += failed
                 if failed and slot is not None:
-                    why = str(slot.report.failure).split(":")[0]
+                    why = str(slot.report.gave_up).split(":")[0]
                     reasons[why] = reasons.get(why, 0) + 1
                 expert_chunks += expert_acts and not failed
             learner, _ = policy.predict(obs, episode_start=np.array([t == 0]))

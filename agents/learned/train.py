@@ -122,13 +122,16 @@ def train_diffusion(
     resume: bool = False,
     progress: bool = True,
     init: Path | None = None,
+    only_success: bool = True,
 ) -> dict[str, Any]:
     """Train on Minari ``dataset`` into folder ``out`` (see the module docstring) and return
     the summary that ``policy.json`` also holds. ``env_id``/``env_kwargs``: the env the
     policy acts in (validation, and ``slide-gym evaluate DIR``); ``card``: extra entries
     for ``policy.json``. An ``out`` that already holds a checkpoint needs ``resume=True``
     (with the same configuration). ``init``: a ``policy.pt`` to start from (its weights,
-    configuration and normalisation statistics; DAgger's warm start)."""
+    configuration and normalisation statistics; DAgger's warm start). ``only_success``: train
+    on the episodes whose ``success`` flag is set and on DAgger rollouts (False: on every
+    episode); see :func:`~agents.learned.data.load_demonstrations`."""
     init_model = None
     if init is not None:
         from agents.learned.policy import load_model
@@ -145,7 +148,9 @@ def train_diffusion(
             "continue it, or choose another --out"
         )
     torch.set_num_threads(1)
-    demos = load_demonstrations(dataset, with_features=config.with_features)
+    demos = load_demonstrations(
+        dataset, with_features=config.with_features, only_success=only_success
+    )
     if init_model is None:
         config = replace(config, hand=hand_kind(demos.labels))
     sampler = ChunkSampler(demos, config.obs_horizon, config.pred_horizon, config.actions)
@@ -173,8 +178,8 @@ def train_diffusion(
     start, train_time, best = 0, 0.0, -1.0
     if resume and ckpt_path.exists():
         blob = torch.load(ckpt_path, map_location="cpu", weights_only=False)
-        saved = (blob["config"], blob["train"])
-        if saved != (config.to_json(), _train_json(train)):
+        saved = (blob["config"], blob["train"], blob.get("only_success", True))
+        if saved != (config.to_json(), _train_json(train), only_success):
             raise ValueError(
                 f"{str(out)!r} was trained with another configuration ({saved}); resume with "
                 "the same options, or choose another --out"
@@ -200,6 +205,7 @@ def train_diffusion(
             "windows": len(sampler),
             "dropped_windows": sampler.dropped,
             "skipped_episodes": demos.skipped,
+            "only_success": bool(only_success),
             "seeds": [min(demos.seeds), max(demos.seeds)],
         },
         "parameters": sum(p.numel() for p in model.parameters()),
@@ -209,6 +215,7 @@ def train_diffusion(
         blob = {
             "config": config.to_json(),
             "train": _train_json(train),
+            "only_success": bool(only_success),
             "input_dim": model.input_dim,
             "action_dim": model.action_dim,
             "model": model.state_dict(),

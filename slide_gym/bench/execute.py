@@ -8,8 +8,6 @@ Each result row is an :class:`agents.record.EpisodeRecord` as JSON (the ``slide-
 from __future__ import annotations
 
 import math
-import re
-from collections import Counter
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -183,32 +181,12 @@ def _group(rows: Sequence[dict[str, Any]], key: str, order: Sequence[str]) -> di
     return groups
 
 
-def failure_kind(row: dict[str, Any]) -> str | None:
-    """A failed episode's cause without its numbers, for counting (None for a success)."""
-    if row.get("success"):
-        return None
-    phase = row.get("phase_reached")
-    if row.get("fell_off"):
-        return f"the plate fell off the table ({phase})"
-    failure = row.get("failure")
-    if failure:
-        failure = re.sub(r" after \d+ iterations.*| \(.*\)$", "", str(failure))
-        return re.sub(r"\d+(\.\d+)?", "N", failure)
-    if row.get("truncated"):
-        return f"out of episode time ({phase})"
-    return f"ended without a lift ({phase})"
-
-
-def _failures(rows: Sequence[dict[str, Any]]) -> dict[str, int]:
-    kinds = Counter(k for k in map(failure_kind, rows) if k is not None)
-    return dict(kinds.most_common())
-
-
 def summarize_execute(results: Sequence[dict[str, Any]]) -> dict[str, Any]:
     """Lift (success) and planned rates, wall times, slide errors, per object and per table.
 
     Medians skip ``None`` (no slide happened, or the scene was rejected before an episode).
     """
+    from agents.outcome import failure_counts
     from slide_gym.geometry import OBJECT_NAMES, TABLE_NAMES
 
     walls = _present(results, "wall_time_s")
@@ -229,7 +207,7 @@ def summarize_execute(results: Sequence[dict[str, Any]]) -> dict[str, Any]:
         "slide_error_deg_median": _scaled(error_rad, 180.0 / math.pi),
         "by_object": _group(results, "object", OBJECT_NAMES),
         "by_table": _group(results, "table", TABLE_NAMES),
-        "failures": _failures(results),
+        "failures": failure_counts(results),
     }
 
 
@@ -267,6 +245,6 @@ def execute_markdown_table(summary: dict[str, Any]) -> str:
                 f"| {_fmt(row['wall_time_s_median'], '.1f')} |"
             )
     if summary["failures"]:
-        lines += ["", "| failure (phase) | episodes |", "|---|---:|"]
+        lines += ["", "| failure | episodes |", "|---|---:|"]
         lines += [f"| {kind} | {n} |" for kind, n in summary["failures"].items()]
     return "\n".join(lines) + "\n"

@@ -216,6 +216,17 @@ def parse_randomization(text: str | None) -> str | dict[str, Any] | None:
     return spec
 
 
+def add_only_success(p: argparse.ArgumentParser, note: str = "") -> None:
+    """``--only-success`` (the default) / ``--no-only-success`` of the trainers."""
+    p.add_argument(
+        "--only-success",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="train only on the episodes the expert solved (the default: a failed or idle "
+        "episode teaches the wrong moves); --no-only-success trains on every episode" + note,
+    )
+
+
 def parse_floats(text: str, n: int, what: str) -> tuple[float, ...]:
     """``n`` comma-separated numbers, or a ValueError naming the option ``what``."""
     try:

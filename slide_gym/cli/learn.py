@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from slide_gym.cli.args import add_backend, add_command
+from slide_gym.cli.args import add_backend, add_command, add_only_success
 from slide_gym.splits import DAGGER_SEED, TEST_SEED, VALIDATION_SEED
 
 
@@ -44,6 +44,7 @@ def _cmd_train_dp(args: argparse.Namespace) -> int:
         env_kwargs=dict(meta.get("env_kwargs") or {}),
         card={"dataset_id": args.dataset_id},
         resume=args.resume,
+        only_success=args.only_success,
     )
     print(json.dumps({"out": str(args.out), **summary}, indent=2))
     return 0
@@ -92,7 +93,8 @@ def add_parsers(sub: Any) -> None:
         "train-dp",
         "train a diffusion policy (action chunks, DDIM) on a demonstration dataset",
         "Train a 1-D U-Net diffusion policy (observation horizon 2, chunks of 16 actions, 8 "
-        "executed) on the dataset's successful episodes, in the dataset's env. DIR gets "
+        "executed) on the dataset's successful episodes (--only-success, the default) and its "
+        "DAgger rollouts, in the dataset's env. DIR gets "
         "checkpoint.pt (every --log-every iterations, and on Ctrl-C), progress.csv (loss; "
         f"success on validation seeds from {VALIDATION_SEED} every --val-every iterations), "
         "learning_curve.png, and policy.pt/policy.json: the EMA weights of the checkpoint "
@@ -147,6 +149,7 @@ def add_parsers(sub: Any) -> None:
     p.add_argument("--val-every", type=int, default=5_000, metavar="N", help="0: at the end only")
     p.add_argument("--val-episodes", type=int, default=20, metavar="N", help="0: never validate")
     p.add_argument("--resume", action="store_true", help="continue the run in DIR")
+    add_only_success(p, "; DAgger rollouts are kept either way (their labels are the expert's)")
     p.set_defaults(func=_cmd_train_dp)
 
     p = add_command(

@@ -54,9 +54,11 @@ def run_text(r: EpisodeRecord) -> str:
         f"  planned {'yes' if e.planned else 'no'} ({e.replans} replans, "
         f"{or_na(e.planning_time_s, '.2f', ' s')} planning); {r.steps} steps, "
         f"{or_na(r.sim_time_s, '.2f', ' s')} simulated in {or_na(r.wall_time_s, '.2f', ' s')}",
-        f"  slide error {or_na(cm, '.1f', ' cm')} / {or_na(deg, '.1f', ' deg')}, lift "
-        f"{or_na(r.lift_height_m, '.3f', ' m')}, final pose {fmt_pose(r.object_final_pose)}",
+        f"  slide error {or_na(cm, '.1f', ' cm')} / {or_na(deg, '.1f', ' deg')}, plate rose "
+        f"{or_na(r.lift_height_m, '.3f', ' m')}, clearance {or_na(r.clearance_m, '.3f', ' m')} "
+        f"(most {or_na(r.max_clearance_m, '.3f', ' m')}), final pose "
+        f"{fmt_pose(r.object_final_pose)}",
     ]
-    if e.failure:
-        lines.append(f"  failure: {e.failure}")
+    if r.failure:
+        lines.append(f"  failure: {r.failure}")
     return "\n".join(lines)

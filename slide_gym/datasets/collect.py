@@ -32,6 +32,8 @@ from slide_gym.splits import get_split
 
 MAX_TRIES_PER_EPISODE = 20
 """``only_success`` gives up after this many episodes per one asked for."""
+LOW_SUCCESS = 0.8
+"""Below this expert success rate :func:`failure_report` warns."""
 
 
 def staging_dir(dataset_id: str) -> Path:
@@ -47,6 +49,8 @@ def collect_case(case: dict[str, Any]) -> dict[str, Any]:
     episode = record_episode(config, int(case["seed"]))
     return {
         "success": episode.success,
+        "failure": episode.record.get("failure"),
+        "gave_up": episode.record.get("gave_up"),
         "steps": episode.steps,
         "return": float(episode.rewards.sum()),
         "planning_time_s": episode.record.get("planning_time_s"),
@@ -139,6 +143,7 @@ def _build(
     minari: Any,
 ) -> dict[str, Any]:
     """Build (or keep, if it already holds exactly ``seeds``) the dataset; its summary."""
+    from agents.outcome import failure_counts
     from agents.params import EXPERT_SLIDE_PARAMS, ExpertParams
     from slide_gym.version import code_version
 
@@ -162,6 +167,7 @@ def _build(
         "episodes_run": len(tried),
         "expert_successes": successes,
         "expert_success_rate": successes / len(tried),
+        "expert_failures": failure_counts(tried),
         "mean_return": float(np.mean(returns)),
         "total_steps": steps,
     }
@@ -196,10 +202,25 @@ def _build(
         "steps": steps,
         "episodes_run": len(tried),
         "expert_success_rate": metadata["expert_success_rate"],
+        "failures": failure_counts(tried),
         "bytes_per_step": size / max(steps, 1),
         "planning_time_s_median": _median([r.get("planning_time_s") for r in kept]),
         "wall_time_s_median": _median([r.get("wall_time_s") for r in kept]),
     }
+
+
+def failure_report(summary: dict[str, Any]) -> str:
+    """Lines for the end of a collection: the failed episodes counted by cause (numbers left
+    out), and a warning when the expert succeeded in fewer than :data:`LOW_SUCCESS` of them."""
+    run, rate = summary["episodes_run"], summary["expert_success_rate"]
+    lines = [f"expert success: {round(rate * run)} of {run} episodes ({100 * rate:.0f} %)"]
+    lines += [f"  {n} x {kind}" for kind, n in summary["failures"].items()]
+    if rate < LOW_SUCCESS:
+        lines.append(
+            f"warning: expert success {100 * rate:.0f} % is below {100 * LOW_SUCCESS:.0f} %: "
+            "the scene may be too hard for the expert (see the failures above)"
+        )
+    return "\n".join(lines)
 
 
 def claim_stage(

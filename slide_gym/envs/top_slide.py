@@ -184,7 +184,8 @@ class TopSlideEnv(gym.Env):
     touching both fingers and not the table, at every control step of that second. Success
     terminates the episode; so does the object falling off the table (a failure). Truncation
     comes from the registered time limit. ``info["is_success"]`` is a Python bool at reset and
-    every step; ``info["lift_held_s"]`` is how long the current lift has held.
+    every step; ``info["lift_held_s"]`` is how long the current lift has held, and
+    ``info["pinched"]`` whether the object touches both fingers.
 
     ## Arguments
     - ``object``: a catalog name (see ``slide_gym.OBJECT_NAMES``), a path to a JSON shape, an
@@ -543,6 +544,7 @@ class TopSlideEnv(gym.Env):
             "lift_held_s": self._lift_steps * self.dt,
             "touching_robot": s.touching_robot,
             "touching_table": s.touching_table,
+            "pinched": s.touching_finger_a and s.touching_finger_b,
             "fell_off": s.fell_off,
             "object_pose_2d": s.object_pose,
             "object": self.task.object.name,

@@ -57,13 +57,23 @@ class Row:
 
 
 SQUARE_SLIDE = {"episodes": 200, "only_success": True}
+OFFSETS = ["--actions", "offsets"]
+"""The chunks of the rows trained before per-step deltas became the default."""
 ROWS = {
     r.name: r
     for r in [
         Row("random-square-slide", "random", SLIDE, SQUARE),
         Row("expert-square-slide", "expert", SLIDE, SQUARE),
         Row("bc-square-slide", "bc", SLIDE, SQUARE, "slide-gym/square-slide-v1", SQUARE_SLIDE),
-        Row("dp-square-slide", "dp", SLIDE, SQUARE, "slide-gym/square-slide-v1", SQUARE_SLIDE),
+        Row(
+            "dp-square-slide",
+            "dp",
+            SLIDE,
+            SQUARE,
+            "slide-gym/square-slide-v1",
+            SQUARE_SLIDE,
+            OFFSETS,
+        ),
         *(
             Row(
                 f"dp-square-slide-seed{s}",
@@ -72,7 +82,7 @@ ROWS = {
                 SQUARE,
                 "slide-gym/square-slide-v1",
                 SQUARE_SLIDE,
-                ["--seed", str(s)],
+                [*OFFSETS, "--seed", str(s)],
             )
             for s in (1, 2)
         ),
@@ -83,7 +93,7 @@ ROWS = {
             SQUARE,
             "slide-gym/square-slide-v1",
             SQUARE_SLIDE,
-            ["--no-features"],
+            [*OFFSETS, "--no-features"],
         ),
         Row(
             "dp-dart-square-slide",
@@ -92,6 +102,7 @@ ROWS = {
             SQUARE,
             "slide-gym/square-slide-dart-v1",
             {**SQUARE_SLIDE, "action_noise": 0.05},
+            OFFSETS,
         ),
         Row(
             "dp-dagger-square-slide",
@@ -105,7 +116,15 @@ ROWS = {
         ),
         Row("expert-square-grasp", "expert", GRASP, SQUARE),
         Row("bc-square-grasp", "bc", GRASP, SQUARE, "slide-gym/square-grasp-v1", SQUARE_SLIDE),
-        Row("dp-square-grasp", "dp", GRASP, SQUARE, "slide-gym/square-grasp-v1", SQUARE_SLIDE),
+        Row(
+            "dp-square-grasp",
+            "dp",
+            GRASP,
+            SQUARE,
+            "slide-gym/square-grasp-v1",
+            SQUARE_SLIDE,
+            OFFSETS,
+        ),
         Row("expert-catalog-slide", "expert", SLIDE, CATALOG),
         Row(
             "dp-catalog-slide",
@@ -114,6 +133,7 @@ ROWS = {
             CATALOG,
             "slide-gym/catalog-slide-v1",
             {"episodes": 400, "only_success": True},
+            OFFSETS,
         ),
         Row("expert-ee-square-slide", "expert", SLIDE, {**SQUARE, **EE}),
         Row(
@@ -131,6 +151,7 @@ ROWS = {
             {**SQUARE, **EE},
             "slide-gym/square-slide-ee-v1",
             SQUARE_SLIDE,
+            OFFSETS,
         ),
         Row(
             "dp-ee-square-slide-deltas",
@@ -140,6 +161,16 @@ ROWS = {
             "slide-gym/square-slide-ee-v1",
             SQUARE_SLIDE,
             ["--actions", "deltas", "--scaling", "standard"],
+        ),
+        Row(
+            "dp-ee-square-slide-deltas-nofeat",
+            "dp",
+            SLIDE,
+            {**SQUARE, **EE},
+            "slide-gym/square-slide-ee-v1",
+            SQUARE_SLIDE,
+            ["--actions", "deltas", "--scaling", "standard", "--iterations", "10000"]
+            + ["--no-features"],
         ),
         Row(
             "dp-dart-ee-square-slide",
@@ -167,7 +198,7 @@ ROWS = {
             {**SQUARE, **EE},
             "slide-gym/square-slide-ee-v1",
             SQUARE_SLIDE,
-            ["--no-features"],
+            [*OFFSETS, "--no-features"],
         ),
         Row(
             "dp-dagger-ee-square-slide",
@@ -195,7 +226,7 @@ ROWS = {
             {**SQUARE, **EE},
             "slide-gym/square-grasp-ee-v1",
             SQUARE_SLIDE,
-            ["--iterations", "15000"],
+            [*OFFSETS, "--iterations", "15000"],
         ),
         Row(
             "dp-ee-square-grasp-deltas",
@@ -398,8 +429,16 @@ def report(out: Path) -> Path:
             f"**{100 * r['success_rate']:.0f} %** ({100 * lo:.0f}-{100 * hi:.0f}) | "
             f"{r['mean_length']:.0f} |"
         )
-    lines += ["", "Commands (code version per row):", ""]
-    lines += [f"- `{r['row']}` ({r['code_version']}): `{r['command']}`" for r in rows.values()]
+    lines += [
+        "",
+        "Commands that make each row with today's code (and the code version that made it):",
+        "",
+    ]
+    lines += [
+        f"- `{name}` ({rows[name]['code_version']}): `{command(row, Path('models'))}`"
+        for name, row in ROWS.items()
+        if name in rows
+    ]
     md = out / "learning.md"
     md.write_text("\n".join(lines) + "\n")
     _plot_curves(out)

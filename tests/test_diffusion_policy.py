@@ -334,3 +334,14 @@ def test_bad_input_is_one_line_and_exit_2(minari_root, tmp_path, args, needle, c
     assert main(args) == 2
     err = capsys.readouterr().err
     assert needle in err and len(err.strip().splitlines()) == 1
+
+
+def test_train_dp_defaults_are_the_configs():
+    from slide_gym.cli import build_parser
+
+    args = build_parser().parse_args(["train-dp", "some/data-v0", "--out", "run"])
+    default = DiffusionConfig()
+    assert tuple(args.channels) == default.channels
+    assert (args.actions, args.scaling) == (default.actions, default.scaling)
+    assert args.inference_steps == default.inference_steps
+    assert args.no_features is not default.with_features

@@ -56,13 +56,13 @@ class DiffusionConfig:
     obs_horizon: int = 2
     pred_horizon: int = 16
     action_horizon: int = 8
-    channels: tuple[int, ...] = (64, 128, 256)
+    channels: tuple[int, ...] = (32, 64, 128)
     step_embed_dim: int = 64
     train_steps: int = 100
     inference_steps: int = 10
     with_features: bool = True
     actions: str = "deltas"
-    scaling: str = "minmax"
+    scaling: str = "standard"
     obs_embed: int = 0
     hand: str = "continuous"
 

@@ -128,7 +128,7 @@ def add_parsers(sub: Any) -> None:
     )
     p.add_argument(
         "--actions",
-        default="offsets",
+        default="deltas",
         choices=("offsets", "deltas"),
         help="chunk arm motion as offsets from the current target, or per-step increments",
     )

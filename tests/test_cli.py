@@ -140,7 +140,8 @@ def test_bench_alone_is_a_usage_error(capsys: pytest.CaptureFixture[str]) -> Non
         main(["bench"])
     assert exit_.value.code == 2
     err = capsys.readouterr().err
-    assert err.startswith("usage: slide-gym bench") and "{env,plan,execute}" in err
+    assert err.startswith("slide-gym bench: error:") and "{env,plan,execute}" in err
+    assert err.count("\n") == 1  # one line: the usage block is --help's
     assert "Traceback" not in err
 
 

@@ -5,6 +5,7 @@ are not datasets break nothing, and ``export`` refuses to write there."""
 
 from __future__ import annotations
 
+import re
 import shutil
 import warnings
 from pathlib import Path
@@ -42,7 +43,11 @@ def _usage_error(argv: list[str], capsys: pytest.CaptureFixture[str]) -> str:
     assert exit_.value.code == 2
     err = capsys.readouterr().err
     assert "Traceback" not in err
-    return err.strip().splitlines()[-1]
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err  # one line, no usage block
+    line, hint = lines[0].rsplit(" (see ", 1)
+    assert re.fullmatch(r"slide-gym [a-z -]+ --help\)", hint), hint
+    return line
 
 
 def _refuse(*args: object, **kwargs: object) -> Any:

@@ -114,7 +114,7 @@ def test_collect_split_selects_objects_and_seeds(
 
     def fake_collect(config: CollectConfig, episodes: int, dataset_id: str, **_: Any) -> dict:
         got.update(config=config, episodes=episodes)
-        return {}
+        return {"episodes_run": episodes, "expert_success_rate": 1.0, "failures": {}}
 
     monkeypatch.setattr("slide_gym.datasets.collect.collect", fake_collect)
     args = ["collect", "--env", ENV_ID, "--episodes", "3", "--dataset-id", "t/x-v0", *argv]

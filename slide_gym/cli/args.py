@@ -10,7 +10,7 @@ import textwrap
 import warnings
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from slide_gym.geometry.catalog import unknown_name
 from slide_gym.geometry.shape_json import closest
@@ -18,7 +18,11 @@ from slide_gym.geometry.shape_json import closest
 
 class Parser(argparse.ArgumentParser):
     """argparse's parser that names the closest option of a misspelt one (``--objct``:
-    "did you mean --object?"), in the usage error of the subcommand it was given to."""
+    "did you mean --object?"), in the error of the subcommand it was given to, and reports a
+    usage error on one line (no usage block; ``--help`` shows it) with exit status 2."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
     def parse_args(  # type: ignore[override]
         self, args: Sequence[str] | None = None, namespace: Any = None

@@ -32,6 +32,10 @@ EXTRA_OVERHANG = 0.02
 too small for it), delta = min(2 mm, a third of the plate's slack)."""
 N_DIRECTIONS = 720
 """Plate directions (a 0.5 degree grid) tried to face the edge."""
+TURN_SCALE = 0.5
+"""rad: a direction that needs the plate to turn by t is drawn with weight exp(-t /
+TURN_SCALE). Small turns keep the slide short in joint space (a large plate, which may face
+the edge any way, then mostly slides without turning); large ones stay possible."""
 
 
 class PlateGoalPoses:
@@ -81,9 +85,9 @@ class PlateGoalPoses:
         start_yaw: float = 0.0,
         max_rotation: float = math.inf,
     ) -> np.ndarray | None:
-        """A goal pose turned at most ``max_rotation`` from ``start_yaw``, or None when this
-        draw found none (no admissible direction at the drawn edge point, or a corner spoils
-        the overhang or the centroid)."""
+        """A goal pose turned at most ``max_rotation`` from ``start_yaw`` (small turns
+        preferred, :data:`TURN_SCALE`), or None when this draw found none (no admissible
+        direction at the drawn edge point, or a corner spoils the overhang or the centroid)."""
         if len(self.band) == 0:
             return None
         foot, n = self.edge_point(self.band.sample_point(rng))
@@ -92,7 +96,8 @@ class PlateGoalPoses:
         ok = (self.extent > self.u_star + self.margin) & (turn <= max_rotation)
         if not ok.any():
             return None
-        k = int(rng.choice(np.flatnonzero(ok)))
+        weight = np.exp(-turn[ok] / TURN_SCALE)
+        k = int(rng.choice(np.flatnonzero(ok), p=weight / weight.sum()))
         slack = self.extent[k] - self.u_star - self.margin
         delta = min(0.002, slack / 3.0)
         u_hi = min(self.u_star + EXTRA_OVERHANG, self.extent[k] - self.margin - delta)

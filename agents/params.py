@@ -19,6 +19,7 @@ EXPERT_SLIDE_PARAMS = SlideParams(
     max_rotation=0.8,
     tip_edge_margin=0.01,
     grasp=GraspParams(retreat=0.06),
+    goal_sampling="band",
 )
 """Planner settings the expert uses by default, with margins for the real slide:
 
@@ -33,7 +34,10 @@ EXPERT_SLIDE_PARAMS = SlideParams(
 - at most 0.8 rad of plate rotation: in larger turns the plate slips about the fingertip;
 - the fingertip at least 1 cm inside the table edge: the fingertip creeps ahead of the plate
   and the tracker shifts it further, and a plate pressed beyond the edge tips over it;
-- the grasp approached from a stand-off 6 cm out, clear of the plate's corners."""
+- the grasp approached from a stand-off 6 cm out, clear of the plate's corners;
+- goal roots from the paper's band C_g (``goal_sampling="band"``), which these margins were
+  tuned with: with the plate-first goals, the L on the square table (seed 2, ee_delta
+  control) fell off while grasped. Switching needs the expert's own measurement."""
 
 
 _COUNTS = ("max_replans", "strict_plan_iterations", "grasp_iterations", "route_iterations")

@@ -115,14 +115,17 @@ def test_tip_edge_margin_keeps_contacts_and_goals_inside_the_edge(solve_top_slid
 
 
 def test_cbirrt_restarts_with_a_new_pair_after_its_period(plan_budget: float) -> None:
-    """L on the square table, seed 3: the first validated pair needs 14 search iterations.
-    With a period of 5, cbirrt leaves that pair and draws others; cbirrt-norestart keeps it."""
+    """L on the square table, seed 3, goals from the paper's band C_g: the first validated
+    pair needs 14 search iterations. With a period of 5, cbirrt leaves that pair and draws
+    others; cbirrt-norestart keeps it."""
     from slide_gym.planning.runner import make_params, plan_once
 
-    kept = plan_once("L", "square", seed=3, planner="cbirrt-norestart", time_budget=plan_budget)
+    band = SlideParams(goal_sampling="band")
+    kw = {"seed": 3, "time_budget": plan_budget, "params": band}
+    kept = plan_once("L", "square", planner="cbirrt-norestart", **kw)
     assert kept["status"] == "solved" and kept["stats"]["restarts"] == 0
     assert kept["stats"]["iterations"] > 5
-    params = make_params(restart_iterations=5)
+    params = make_params(restart_iterations=5, base=band)
     kw = {"seed": 3, "planner": "cbirrt", "time_budget": plan_budget, "params": params}
     restarted = plan_once("L", "square", **kw)
     assert restarted["stats"]["restarts"] >= 1

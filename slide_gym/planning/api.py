@@ -13,6 +13,7 @@ from slide_gym.planning.constraints import (
 from slide_gym.planning.ik import IKParams, IKTarget, pose_error, solve_ik
 from slide_gym.planning.pair import GraspParams, PairValidator, grasp_poses
 from slide_gym.planning.params import SlideParams
+from slide_gym.planning.plate_goals import PlateGoalPoses, PlateGoalRegion
 from slide_gym.planning.problem import TopSlideProblem
 from slide_gym.planning.regions import GoalRegion, StartRegion, goal_band, nominal_seed
 from slide_gym.planning.se2 import se2_compose, se2_inverse, slid_object_pose
@@ -29,6 +30,8 @@ __all__ = [
     "IKParams",
     "IKTarget",
     "PairValidator",
+    "PlateGoalPoses",
+    "PlateGoalRegion",
     "SlideConstraints",
     "SlideParams",
     "StartRegion",

@@ -15,6 +15,8 @@ from slide_gym.task import TaskParams
 
 PROJECTIONS: tuple[str, ...] = ("steps", "nodes", "ompl", "orientation")
 """The values of :attr:`SlideParams.projection` (the first is the default)."""
+GOAL_SAMPLINGS: tuple[str, ...] = ("plate", "band")
+"""The values of :attr:`SlideParams.goal_sampling` (the first is the default)."""
 
 
 @dataclass(frozen=True)
@@ -57,6 +59,12 @@ class SlideParams:
       joint limits (a result outside them fails).
     * ``"orientation"``: the projection handles the roll and the pitch band only; the contact
       depth is checked, never projected onto, so a step that leaves the depth band fails.
+
+    ``goal_sampling`` (one of :data:`GOAL_SAMPLINGS`) chooses how goal roots are drawn:
+    ``"plate"`` (default) draws the plate's goal pose first, overhanging u* with its centroid
+    on the table, and the fingertip from the inverse of Eq. 2 for the latest start root
+    (:mod:`slide_gym.planning.plate_goals`); ``"band"`` is the paper's C_g (Eq. 4): the
+    contact anywhere in the band P_g with any yaw.
     """
 
     beta0: float = 0.9
@@ -80,6 +88,7 @@ class SlideParams:
     restart_iterations: int = 100  # cbirrt: iterations on one pair before drawing a new one
     distance_weights: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0, 0.6, 0.6, 0.3)
     projection: str = "steps"  # how the extension keeps to the manifold (PROJECTIONS)
+    goal_sampling: str = "plate"  # how goal roots are drawn (GOAL_SAMPLINGS)
     ik: IKParams = field(default_factory=IKParams)
     grasp: GraspParams = field(default_factory=GraspParams)
 
@@ -124,6 +133,11 @@ class SlideParams:
         if not isinstance(self.projection, str) or self.projection not in PROJECTIONS:
             raise ValueError(
                 f"projection must be one of {', '.join(PROJECTIONS)}, got {self.projection!r}"
+            )
+        if not isinstance(self.goal_sampling, str) or self.goal_sampling not in GOAL_SAMPLINGS:
+            raise ValueError(
+                f"goal_sampling must be one of {', '.join(GOAL_SAMPLINGS)}, "
+                f"got {self.goal_sampling!r}"
             )
         w = np.asarray(self.distance_weights, dtype=float)
         if w.shape != (7,) or not (np.isfinite(w).all() and (w > 0).all()):

@@ -5,6 +5,8 @@ from the band P_g along the table outline for C_g), a yaw alpha in [0, 2 pi), th
 and a contact height inside the depth band, then solves IK for the fingertip pose
 r(alpha, beta0) at that point and keeps the result only if it is on the relaxed manifold and
 collision-free in ``"sliding"`` mode. A failed draw returns None; the search just skips it.
+The planner's default goal region draws the plate's goal pose first instead
+(:mod:`slide_gym.planning.plate_goals`); this module's :class:`GoalRegion` is the paper's.
 """
 
 from __future__ import annotations
@@ -58,6 +60,7 @@ class ContactRegion:
         self.draws = 0
         self.accepted = 0
         self.deadline = math.inf  # draws give up (None) once perf_counter() passes it
+        self.last: np.ndarray | None = None  # the latest accepted configuration
 
     def sample_point(self, rng: np.random.Generator) -> np.ndarray:
         """A contact point (x, y) in world."""
@@ -66,19 +69,33 @@ class ContactRegion:
     def sample(self, rng: np.random.Generator) -> np.ndarray | None:
         """One configuration of the region, or None when this draw failed."""
         self.draws += 1
-        band = self.constraints.band
         xy = self.sample_point(rng)
-        alpha = float(rng.uniform(0.0, TWO_PI))
+        return self.solve_contact(xy, float(rng.uniform(0.0, TWO_PI)), rng)
+
+    def solve_contact(
+        self,
+        xy: np.ndarray,
+        alpha: float,
+        rng: np.random.Generator,
+        seed: np.ndarray | None = None,
+    ) -> np.ndarray | None:
+        """A configuration with the contact at ``xy`` (a height drawn in the depth band), yaw
+        ``alpha`` and pitch beta0, on the relaxed manifold and collision-free, or None. IK
+        starts from ``seed`` (7,), if given, then from :func:`nominal_seed`."""
+        band = self.constraints.band
         z = float(rng.uniform(band.z_lo, band.z_hi))
         point = np.array([xy[0], xy[1], z])
         target = IKTarget(point, contact_rotation(alpha, band.beta0))
-        seed = nominal_seed(point, alpha)
-        q = solve_ik(self.constraints.chain, target, rng, seed[None], self.ik_params, self.deadline)
+        seeds = nominal_seed(point, alpha)[None]
+        if seed is not None:
+            seeds = np.vstack([seed, seeds])
+        q = solve_ik(self.constraints.chain, target, rng, seeds, self.ik_params, self.deadline)
         if q is None or not self.constraints.satisfied(q):
             return None
         if self.checker.collides(q, "sliding"):
             return None
         self.accepted += 1
+        self.last = q
         return q
 
 
@@ -135,25 +152,20 @@ def goal_band(
     return band.intersection(shapely.union_all(pieces)) if pieces else shapely.Polygon()
 
 
-class GoalRegion(ContactRegion):
-    """C_g: contacts uniformly in the band P_g along the table outline (at the plate's top)."""
+class AreaPoints:
+    """Uniform random points of an area (triangulated once); none for an empty area."""
 
-    def __init__(self, band: shapely.Geometry, *args, **kwargs):
-        super().__init__(*args, **kwargs)
-        self.band = band
-        tris = shapely.get_parts(shapely.constrained_delaunay_triangles(band))
+    def __init__(self, area: shapely.Geometry):
+        self.area = area
+        tris = shapely.get_parts(shapely.constrained_delaunay_triangles(area))
         tris = [t for t in tris if t.area > 0.0]
         coords = [shapely.get_coordinates(t)[:3] for t in tris]
-        self.triangles = np.array(coords).reshape(-1, 3, 2)  # (T, 3, 2); none if band empty
+        self.triangles = np.array(coords).reshape(-1, 3, 2)  # (T, 3, 2); none if area empty
         areas = np.array([t.area for t in tris])
         self.cum_area = np.cumsum(areas) / areas.sum() if tris else areas
 
-    def sample(self, rng: np.random.Generator) -> np.ndarray | None:
-        """As :meth:`ContactRegion.sample`; always None for an empty band."""
-        if len(self.triangles) == 0:
-            self.draws += 1
-            return None
-        return super().sample(rng)
+    def __len__(self) -> int:
+        return len(self.triangles)
 
     def sample_point(self, rng: np.random.Generator) -> np.ndarray:
         k = int(np.searchsorted(self.cum_area, rng.random(), side="right"))
@@ -163,6 +175,25 @@ class GoalRegion(ContactRegion):
             r1, r2 = 1.0 - r1, 1.0 - r2
         a, b, c = self.triangles[k]
         return a + r1 * (b - a) + r2 * (c - a)
+
+
+class GoalRegion(ContactRegion):
+    """C_g: contacts uniformly in the band P_g along the table outline (at the plate's top)."""
+
+    def __init__(self, band: shapely.Geometry, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.band = band
+        self.points = AreaPoints(band)
+
+    def sample(self, rng: np.random.Generator) -> np.ndarray | None:
+        """As :meth:`ContactRegion.sample`; always None for an empty band."""
+        if len(self.points) == 0:
+            self.draws += 1
+            return None
+        return super().sample(rng)
+
+    def sample_point(self, rng: np.random.Generator) -> np.ndarray:
+        return self.points.sample_point(rng)
 
 
 def draw_root(

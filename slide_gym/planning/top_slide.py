@@ -26,6 +26,7 @@ import numpy as np
 from slide_gym.planning.collision import CollisionChecker
 from slide_gym.planning.constraints import ContactBand, SlideConstraints
 from slide_gym.planning.pair import PairValidator
+from slide_gym.planning.plate_goals import PlateGoalPoses, PlateGoalRegion
 from slide_gym.planning.problem import TopSlideProblem
 from slide_gym.planning.regions import GoalRegion, StartRegion, draw_root
 from slide_gym.planning.result import (
@@ -53,6 +54,8 @@ class TopSlidePlanner(Planner):
     """Plans a top-sliding motion that leaves the plate graspable (Algorithm 1 and baselines).
 
     * ``"regions"``: start and goal forests both sample roots from C_s / C_g (the paper's).
+      C_g is drawn through the plate's goal pose (``SlideParams.goal_sampling = "plate"``,
+      :mod:`~slide_gym.planning.plate_goals`) or, with ``"band"``, as the paper's Eq. 4.
     * ``"cbirrt2"``: one start configuration drawn first; goal roots sampled from C_g.
     * ``"cbirrt"``: draws start/goal pairs until one passes pair validation (inside the budget),
       then only connects that pair under the motion constraints; after
@@ -93,7 +96,18 @@ class TopSlidePlanner(Planner):
         self.checker = CollisionChecker(problem.table, problem.object)
         args = (self.constraints, self.checker, p.ik)
         self.start_region = StartRegion(problem.start_points, *args)
-        self.goal_region = GoalRegion(problem.goal_band, *args)
+        if p.goal_sampling == "plate":
+            poses = PlateGoalPoses(
+                problem.object.polygon,
+                problem.table.polygon,
+                problem.goal_band,
+                p.u_star,
+                p.centroid_margin,
+            )
+            start, turn = problem.start_pose, p.max_rotation
+            self.goal_region = PlateGoalRegion(poses, self.start_region, start, turn, *args)
+        else:
+            self.goal_region = GoalRegion(problem.goal_band, *args)
         self.validator = PairValidator(
             problem.object,
             problem.table,

@@ -1,0 +1,146 @@
+"""Goal roots that know the plate's size: C_g drawn through the plate's goal pose.
+
+The paper's C_g (Eq. 4) puts the fingertip anywhere in the band P_g with any yaw; where the
+plate then lands follows from the start root it is paired with (Eq. 2). A plate much larger
+than u* overhangs enough in most of those landings, but one whose far points reach little
+more than u* past its centroid overhangs u* only when such a point faces the edge, so pair
+validation rejects most goals drawn that way.
+
+:class:`PlateGoalPoses` draws the plate's goal pose instead: a point of P_g gives the table
+edge and the edge point, a plate direction whose extent reaches u* past the centroid (with
+the centroid margin) faces that edge, and the overhang is drawn in [u* + a little,
+u* + :data:`EXTRA_OVERHANG`] with the centroid still inside. :class:`PlateGoalRegion` turns it
+into a fingertip pose by the inverse of Eq. 2 for the latest start root (Gamma_g = kappa_g *
+inv(kappa_s) * Gamma_s) and solves IK from that root, so the goal tree starts near the start
+tree it was made for. Pair validation is unchanged: it still checks every connected pair.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import shapely
+
+from slide_gym.geometry import overhang, transform_polygon, wrap_angle
+from slide_gym.planning.constraints import planar_pose
+from slide_gym.planning.regions import AreaPoints, GoalRegion, StartRegion
+from slide_gym.planning.se2 import se2_compose, se2_inverse
+
+EXTRA_OVERHANG = 0.02
+"""m: the drawn overhang lies in [u* + delta, u* + EXTRA_OVERHANG] (less where the plate is
+too small for it), delta = min(2 mm, a third of the plate's slack)."""
+N_DIRECTIONS = 720
+"""Plate directions (a 0.5 degree grid) tried to face the edge."""
+TURN_SCALE = 0.5
+"""rad: a direction that needs the plate to turn by t is drawn with weight exp(-t /
+TURN_SCALE). Small turns keep the slide short in joint space (a large plate, which may face
+the edge any way, then mostly slides without turning); large ones stay possible."""
+
+
+class PlateGoalPoses:
+    """Plate goal poses (x, y, yaw) that overhang an edge of P_g by at least u* with the
+    centroid ``centroid_margin`` inside the table (checked with the validator's
+    :func:`~slide_gym.geometry.overhang`).
+
+    Args:
+        plate: the plate's outline in its own frame (centroid at the origin).
+        table: the table outline.
+        band: P_g as an area (edge stretches a side grasp can reach).
+        u_star: the least overhang (m).
+        centroid_margin: how far inside the edge the centroid must lie (m).
+    """
+
+    def __init__(
+        self,
+        plate: shapely.Polygon,
+        table: shapely.Polygon,
+        band: shapely.Geometry,
+        u_star: float,
+        centroid_margin: float = 0.0,
+    ):
+        self.plate, self.table = plate, table
+        self.u_star, self.margin = float(u_star), float(centroid_margin)
+        self.band = AreaPoints(band)
+        hull = shapely.get_coordinates(plate.convex_hull.exterior)[:-1]
+        self.phis = np.linspace(0.0, 2.0 * math.pi, N_DIRECTIONS, endpoint=False)
+        dirs = np.column_stack([np.cos(self.phis), np.sin(self.phis)])
+        self.extent = (hull @ dirs.T).max(axis=0)  # how far the plate reaches along each
+        ring = shapely.get_coordinates(shapely.orient_polygons(table).exterior)
+        self.edge_a, edge_b = ring[:-1], ring[1:]
+        self.edge_d = edge_b - self.edge_a
+        self.edge_len2 = (self.edge_d**2).sum(axis=1)
+
+    def edge_point(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The nearest point of the table outline to ``xy`` and that edge's outward normal."""
+        t = np.clip(((xy - self.edge_a) * self.edge_d).sum(axis=1) / self.edge_len2, 0.0, 1.0)
+        feet = self.edge_a + t[:, None] * self.edge_d
+        k = int(np.argmin(((feet - xy) ** 2).sum(axis=1)))
+        e = self.edge_d[k] / math.sqrt(self.edge_len2[k])
+        return feet[k], np.array([e[1], -e[0]])  # outward for a counter-clockwise ring
+
+    def sample(
+        self,
+        rng: np.random.Generator,
+        start_yaw: float = 0.0,
+        max_rotation: float = math.inf,
+    ) -> np.ndarray | None:
+        """A goal pose turned at most ``max_rotation`` from ``start_yaw`` (small turns
+        preferred, :data:`TURN_SCALE`), or None when this draw found none (no admissible
+        direction at the drawn edge point, or a corner spoils the overhang or the centroid)."""
+        if len(self.band) == 0:
+            return None
+        foot, n = self.edge_point(self.band.sample_point(rng))
+        yaws = math.atan2(n[1], n[0]) - self.phis  # the plate yaw that points phi along n
+        turn = np.abs((yaws - start_yaw + math.pi) % (2.0 * math.pi) - math.pi)
+        ok = (self.extent > self.u_star + self.margin) & (turn <= max_rotation)
+        if not ok.any():
+            return None
+        weight = np.exp(-turn[ok] / TURN_SCALE)
+        k = int(rng.choice(np.flatnonzero(ok), p=weight / weight.sum()))
+        slack = self.extent[k] - self.u_star - self.margin
+        delta = min(0.002, slack / 3.0)
+        u_hi = min(self.u_star + EXTRA_OVERHANG, self.extent[k] - self.margin - delta)
+        u = float(rng.uniform(self.u_star + delta, u_hi))
+        centre = foot - (self.extent[k] - u) * n
+        pose = np.array([centre[0], centre[1], wrap_angle(float(yaws[k]))])
+        placed = transform_polygon(self.plate, *pose)
+        ov = overhang(placed, self.table)
+        margin_ok = self.margin <= 0.0 or self.table.exterior.distance(placed.centroid) >= (
+            self.margin
+        )
+        if ov.u < self.u_star or not ov.centroid_inside or not margin_ok:
+            return None
+        return pose
+
+
+class PlateGoalRegion(GoalRegion):
+    """C_g through the plate's goal pose: a fingertip pose from the inverse of Eq. 2 for the
+    start region's latest root (:attr:`StartRegion.last`); while there is none, a draw of the
+    paper's band region (:class:`GoalRegion`)."""
+
+    def __init__(
+        self,
+        poses: PlateGoalPoses,
+        start: StartRegion,
+        object_start: np.ndarray,
+        max_rotation: float,
+        *args,
+        **kwargs,
+    ):
+        super().__init__(poses.band.area, *args, **kwargs)
+        self.poses, self.start = poses, start
+        self.object_start = np.asarray(object_start, dtype=float)
+        self.max_rotation = float(max_rotation)
+
+    def sample(self, rng: np.random.Generator) -> np.ndarray | None:
+        q_s = self.start.last
+        if q_s is None:
+            return super().sample(rng)
+        self.draws += 1
+        kappa_g = self.poses.sample(rng, float(self.object_start[2]), self.max_rotation)
+        if kappa_g is None:
+            return None
+        gamma_s = planar_pose(self.constraints.chain.forward(q_s))
+        gamma_g = se2_compose(kappa_g, se2_compose(se2_inverse(self.object_start), gamma_s))
+        return self.solve_contact(gamma_g[:2], float(gamma_g[2]), rng, seed=q_s)

@@ -11,14 +11,19 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from gymnasium.utils import seeding as gym_seeding
 
 from agents.outcome import Outcome, failure_cause
 from agents.params import ExpertParams
 from agents.planner_agent import PlannerAgent
 from agents.record import EpisodeRecord
 from slide_gym import DICT_ENV_IDS, EXPERT_ENV_ID
+from slide_gym.envs.scene import SceneChoice
 from slide_gym.geometry import ObjectShape, TableShape
 from slide_gym.planning.result import check_time_budget
+from slide_gym.task import TaskParams
+
+START_MARGIN = TaskParams.start_margin
 
 ENV_ID = EXPERT_ENV_ID
 VIDEO_SUFFIXES = (".mp4", ".gif")
@@ -65,6 +70,9 @@ def run_episode(
             raise ValueError(
                 f"video: folder {str(Path(video).parent)!r} does not exist (for {str(video)!r})"
             )
+    # The env draws the scene from the seed; the same draw here tells the agent what it is.
+    choice = SceneChoice(object, table, scale, thickness)
+    shape, table_shape = choice.draw(gym_seeding.np_random(int(seed))[0], int(seed), START_MARGIN)
     env = gym.make(
         env_id,
         object=object,
@@ -74,15 +82,12 @@ def run_episode(
         render_mode="rgb_array" if video else None,
         control_mode=control_mode,
     )
-    # The scene is drawn at reset (the same again in play_episode); the agent is told its
-    # shapes to recognise them.
-    env.reset(seed=seed)
     agent = PlannerAgent(
         planner,
         time_budget,
         seed=seed,
-        objects=[env.unwrapped.task.object],
-        tables=[env.unwrapped.task.table],
+        objects=[shape],
+        tables=[table_shape],
         params=params,
         control_mode=control_mode,
         **planner_params,

@@ -106,9 +106,18 @@ class RandomAgent:
         return self.rng.uniform(self.space.low, self.space.high, shape).astype(np.float32), state
 
 
-def _open_agent(agent: Any) -> tuple[str | None, Any, dict[str, Any]]:
+def _open_agent(
+    agent: Any, action_horizon: int | None = None
+) -> tuple[str | None, Any, dict[str, Any]]:
     """``(planner name or None, policy with predict or None, its card)``: the card holds the
     ``env_id`` and ``env_kwargs`` it was trained with (``{}`` for planners and ``random``)."""
+    if action_horizon is not None and not (
+        isinstance(agent, (str, Path)) and Path(agent).is_dir()
+    ):
+        raise ValueError(
+            "action_horizon applies to a diffusion policy folder (from train-dp) only, "
+            f"got the agent {str(agent)!r}"
+        )
     if hasattr(agent, "predict"):
         return None, agent, dict(getattr(agent, "card", {}))
     if agent == RANDOM:
@@ -123,7 +132,7 @@ def _open_agent(agent: Any) -> tuple[str | None, Any, dict[str, Any]]:
                 f"{str(agent)!r} is a folder without a saved policy (policy.pt); "
                 "train one with `slide-gym train-dp DATASET_ID --out DIR`"
             )
-        policy = DiffusionPolicy.load(agent)
+        policy = DiffusionPolicy.load(agent, action_horizon=action_horizon)
         return None, policy, json.loads((Path(agent) / CARD_FILE).read_text())
     model_path = _model_file(agent)
     if model_path is None:
@@ -144,6 +153,7 @@ def evaluate(
     time_budget: float = 10.0,
     progress: bool = False,
     max_steps: int | None = None,
+    action_horizon: int | None = None,
 ) -> dict[str, Any]:
     """Run ``agent`` for ``episodes`` episodes of ``gym.make(env_id, **env_kwargs)`` with reset
     seeds ``seed``, ``seed + 1``, ... and report how often it succeeded.
@@ -166,6 +176,8 @@ def evaluate(
         progress: print one line per episode to stderr.
         max_steps: stop an episode after this many steps and count it as a failure
             (default: the env's time limit only).
+        action_horizon: a diffusion-policy folder's actions executed per chunk (default: the
+            policy's own; :class:`~agents.learned.policy.DiffusionPolicy`).
 
     Returns:
         ``{"agent", "env_id", "env_kwargs", "episodes", "successes", "success_rate", "ci95",
@@ -180,7 +192,7 @@ def evaluate(
         raise ValueError(f"max_steps must be a positive integer or None, got {max_steps!r}")
     if env_id not in DICT_ENV_IDS:
         raise ValueError(f"env_id must be one of {', '.join(DICT_ENV_IDS)}, got {env_id!r}")
-    planner, model, card = _open_agent(agent)
+    planner, model, card = _open_agent(agent, action_horizon)
     if planner:
         check_time_budget(time_budget)
     trained_in = card.get("env_id")
@@ -257,6 +269,7 @@ def evaluate(
         "agent": str(agent),
         "env_id": env_id,
         "env_kwargs": kwargs,
+        **({"action_horizon": action_horizon} if action_horizon is not None else {}),
         "episodes": len(results),
         "successes": k,
         "success_rate": k / len(results),

@@ -256,6 +256,23 @@ def test_action_queue_runs_eight_steps_and_resets_at_episode_start(trained, monk
     assert len(calls) == 3  # a new episode drops what was queued
 
 
+def test_a_shorter_action_horizon_samples_more_often(trained, monkeypatch):
+    env = gym.make(ENV_ID)
+    obs, _ = env.reset(seed=0)
+    env.close()
+    policy = DiffusionPolicy.load(trained, action_horizon=2)
+    calls = []
+    real = policy.model.sample
+    monkeypatch.setattr(policy.model, "sample", lambda *a: calls.append(1) or real(*a))
+    for t in range(8):
+        policy.predict(obs, episode_start=np.array([t == 0]))
+    assert len(calls) == 4
+    most = policy.config.pred_horizon - policy.config.obs_horizon + 1
+    for bad in (0, most + 1, 2.0):
+        with pytest.raises(ValueError, match="action_horizon"):
+            DiffusionPolicy.load(trained, action_horizon=bad)
+
+
 def test_runs_under_sb3_evaluate_policy_on_a_vectorised_env(trained):
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.evaluation import evaluate_policy
@@ -275,6 +292,9 @@ def test_evaluate_command_runs_a_policy_folder(trained, capsys):
     assert main([*args]) == 0
     result = json.loads(capsys.readouterr().out)
     assert result["episodes"] == 1 and result["env_kwargs"]["object"] == "square"
+    assert "action_horizon" not in result
+    assert main([*args, "--action-horizon", "4"]) == 0
+    assert json.loads(capsys.readouterr().out)["action_horizon"] == 4
 
 
 def test_one_dagger_round_adds_labelled_steps(dart, trained, tmp_path):
@@ -307,6 +327,7 @@ def test_one_dagger_round_adds_labelled_steps(dart, trained, tmp_path):
     [
         (["train-dp", "nobody/nothing-v0", "--out", "dp"], "no local dataset"),
         (["evaluate", "{empty}", "--episodes", "1"], "without a saved policy"),
+        (["evaluate", "regions", "--episodes", "1", "--action-horizon", "4"], "action_horizon"),
         (
             ["collect", "--episodes", "1", "--action-noise", "-1", "--dataset-id", "t/x-v0"],
             "action_noise",

@@ -69,6 +69,9 @@ class DiffusionPolicy:
         seed: seeds the initial noise of every chunk; the same seed and observations give the
             same actions.
         inference_steps: DDIM steps per chunk (default: the model's).
+        action_horizon: actions of each chunk executed before sampling the next (default:
+            the model's; at most ``pred_horizon - obs_horizon + 1``). Fewer react sooner to
+            what the plate does, at one sample per that many steps.
         card: the policy card (``env_id``, ``env_kwargs``, ...), if loaded from a folder.
     """
 
@@ -78,11 +81,23 @@ class DiffusionPolicy:
         *,
         seed: int = 0,
         inference_steps: int | None = None,
+        action_horizon: int | None = None,
         card: dict[str, Any] | None = None,
     ) -> None:
         torch.set_num_threads(1)
         self.model = model.eval()
         self.config = model.config
+        most = self.config.pred_horizon - self.config.obs_horizon + 1
+        if action_horizon is None:
+            action_horizon = self.config.action_horizon
+        if isinstance(action_horizon, bool) or not isinstance(action_horizon, int) or not (
+            1 <= action_horizon <= most
+        ):
+            raise ValueError(
+                f"action_horizon must be a whole number in 1..{most} (pred_horizon - "
+                f"obs_horizon + 1), got {action_horizon!r}"
+            )
+        self.action_horizon = action_horizon
         self.inference_steps = inference_steps
         self.card = dict(card or {})
         self.seed = int(seed)
@@ -135,7 +150,7 @@ class DiffusionPolicy:
         if need:
             window = torch.from_numpy(np.stack([np.stack(self._history[i]) for i in need]))
             chunks = self.model.sample(window, self.generator, self.inference_steps).numpy()
-            first, count = self.config.obs_horizon - 1, self.config.action_horizon
+            first, count = self.config.obs_horizon - 1, self.action_horizon
             for i, chunk in zip(need, chunks, strict=True):
                 actions = chunk_to_actions(chunk, first, count, self.config.actions)
                 self._queues[i] = list(actions)

@@ -231,6 +231,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
             env_kwargs=env_kwargs,
             time_budget=args.time_budget,
             progress=not args.json,
+            action_horizon=args.action_horizon,
         )
     if args.split is not None:
         result["split"] = args.split
@@ -445,6 +446,12 @@ def add_parsers(sub: Any) -> None:
     )
     p.add_argument(
         "--time-budget", type=float, default=10.0, metavar="S", help="planner agents' budget"
+    )
+    p.add_argument(
+        "--action-horizon",
+        type=int,
+        metavar="K",
+        help="a train-dp policy's actions executed per chunk (default: the policy's, 8)",
     )
     add_randomization(p)
     p.add_argument("--json", action="store_true", help="print the result as JSON")

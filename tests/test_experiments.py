@@ -275,7 +275,9 @@ def test_report_plots_and_quotes_the_paper(
     ) in text
     assert "**Not met**: the median misses by 350 ms (233 % over 0.15 s)." in text
     assert "Target (half scale): asked for a mean planning time at half scale at most 1.5x" in text
-    assert "## planners-poses1-budget1s" in text and "30 runs (a reduced run: poses1-budget1s)" in text
+    assert (
+        "## planners-poses1-budget1s" in text and "30 runs (a reduced run: poses1-budget1s)" in text
+    )
     assert "| cbirrt2 | 0.5 | 2 | 100.0 % (" in text  # the quick run: 2 objects per scale
     assert "measured scale 1 median: regions 0.500 s against cbirrt 0.500 s;" in text
 

@@ -65,12 +65,43 @@ def test_full_sizes_follow_the_issue() -> None:
 def test_quick_sizes_are_a_smoke_test() -> None:
     sizes = {n: len(experiment_cases(n, "v", quick=True)) for n in specs.EXPERIMENTS}
     assert sizes == {
-        "fig10": 4, "fig11": 14, "fig12": 4, "restart": 12, "agents": 6, "relaxation": 17
+        "fig10": 4, "fig11": 14, "fig12": 4, "restart": 12, "agents": 6, "relaxation": 17,
+        "planners": 12,
     }  # fmt: skip
     for name in specs.EXPERIMENTS:
         cases = experiment_cases(name, "v", quick=True)
         assert _values(cases, "time_budget") == {2.0} and _values(cases, "table") == {"square"}
         assert _values(cases, "seed") == {0}
+
+
+def test_planners_is_fig11s_comparison_at_both_scales() -> None:
+    full = experiment_cases("planners", "v")
+    assert len(full) == 3000 and _values(full, "time_budget") == {60.0}
+    problems: dict[tuple[str, float], set[tuple[str, int]]] = {}
+    for c in full:
+        problems.setdefault((c["planner"], c["scale"]), set()).add((c["object"], c["seed"]))
+    same = {(o, s) for o in PAPER for s in range(100)}
+    assert problems == {(p, s): same for p in ("regions", "cbirrt", "cbirrt2") for s in (1.0, 0.5)}
+    assert _values(full, "dz") == {json.dumps(DZ_2CM)} and _values(full, "table") == {"square"}
+    assert full[0]["seed"] == 0 and full[-1]["seed"] == 99  # the pose is the outer loop
+    reduced = experiment_cases("planners", "v", poses=10, time_budget=10)
+    assert len(reduced) == 300 and _values(reduced, "time_budget") == {10.0}
+    assert reduced[:150] == [c | {"time_budget": 10.0} for c in full[:150]]  # the first poses
+    assert _values(reduced, "seed") == set(range(10))
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"poses": 0}, "--poses must be 1 to 100 for planners, got 0"),
+        ({"poses": 101}, "--poses must be 1 to 100 for planners, got 101"),
+        ({"time_budget": 0.0}, "--budget must be > 0 s, got 0"),
+        ({"quick": True, "poses": 2}, "--quick has its own size"),
+    ],
+)
+def test_a_reduced_size_is_checked(kwargs: dict[str, Any], message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        experiment_cases("planners", "v", **kwargs)
 
 
 def test_fig11_quick_writes_a_row_per_query_and_resumes(
@@ -157,6 +188,9 @@ def _refuse(*args: object, **kwargs: object) -> Any:
         (["fig10", "--ray-address", "10.0.0.1:6379"], "--ray-address goes with --backend ray"),
         (["relaxation", "--workers", "-1"], "--workers must be >= 1"),
         (["all", "--workers", "0"], "--workers must be >= 1"),
+        (["planners", "--poses", "0"], "--poses must be 1 to 100 for planners, got 0"),
+        (["all", "--poses", "5"], "--poses must be 1 to 2 for relaxation, got 5"),
+        (["fig11", "--quick", "--budget", "5"], "--quick has its own size"),
     ],
 )
 def test_bad_input_exits_2_before_any_work(
@@ -188,6 +222,26 @@ def test_file_names_keep_sizes_and_versions_apart(tmp_path: Path) -> None:
     ]
 
 
+def test_reduced_runs_get_their_own_files(tmp_path: Path) -> None:
+    path = run.results_file(tmp_path, "planners", "1.0+a", poses=10, budget=10.0)
+    assert path == tmp_path / "planners-poses10-budget10s-1.0+a.jsonl"
+    assert run.file_tag(path.name, "planners") == "poses10-budget10s"
+    assert run.file_tag("planners-1.0+a.jsonl.gz", "planners") == ""
+    assert run.file_tag("fig11-quick-1.0+a.jsonl", "fig11") == "quick"
+    assert run.file_tag("planners-1.0+a.json", "planners") is None
+    assert run.parse_size_tag("poses10-budget2.5s") == {
+        "quick": False, "poses": 10, "time_budget": 2.5
+    }  # fmt: skip
+    with pytest.raises(ValueError, match="not a size tag"):
+        run.parse_size_tag("big")
+    for name in ("planners-1.0+b", "planners-poses10-budget10s-1.0+b", "planners-quick-1.0+b"):
+        (tmp_path / f"{name}.jsonl").touch()
+    assert run.other_versions(tmp_path, "planners", "1.0+a", poses=10, budget=10.0) == [
+        tmp_path / "planners-poses10-budget10s-1.0+b.jsonl"
+    ]
+    assert run.other_versions(tmp_path, "planners", "1.0+a") == [tmp_path / "planners-1.0+b.jsonl"]
+
+
 def test_report_plots_and_quotes_the_paper(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -196,8 +250,9 @@ def test_report_plots_and_quotes_the_paper(
         return {"status": "solved" if solved else "timeout", "planning_time_s": 0.5, **case}
 
     monkeypatch.setattr(run, "experiment_case", fake)
-    for name in ("fig10", "fig11", "fig12", "restart", "agents", "relaxation"):
+    for name in ("fig10", "fig11", "fig12", "restart", "agents", "relaxation", "planners"):
         run.run_experiment(name, quick=True, workers=1, out=tmp_path)
+    run.run_experiment("planners", workers=1, out=tmp_path, poses=1, budget=1.0)
     assert main(["report", str(tmp_path), "--out", str(tmp_path / "report")]) == 0
     out = tmp_path / "report"
     text = (out / "report.md").read_text()
@@ -220,6 +275,11 @@ def test_report_plots_and_quotes_the_paper(
     ) in text
     assert "**Not met**: the median misses by 350 ms (233 % over 0.15 s)." in text
     assert "Target (half scale): asked for a mean planning time at half scale at most 1.5x" in text
+    assert (
+        "## planners-poses1-budget1s" in text and "30 runs (a reduced run: poses1-budget1s)" in text
+    )
+    assert "| cbirrt2 | 0.5 | 2 | 100.0 % (" in text  # the quick run: 2 objects per scale
+    assert "measured scale 1 median: regions 0.500 s against cbirrt 0.500 s;" in text
 
 
 def test_report_refuses_an_empty_folder(tmp_path: Path, capsys: pytest.CaptureFixture[str]):
@@ -244,6 +304,37 @@ def test_report_reads_compressed_files_and_prefers_the_larger_then_current(
     assert load_experiments(tmp_path)["fig12"][0] == "old"  # the larger file wins
     (tmp_path / "fig12-new.jsonl").write_text(rows(current, 3))
     assert load_experiments(tmp_path)["fig12"][0] == current  # a tie: the current code's
+
+
+def test_planners_target_names_the_best_baseline_and_the_gap() -> None:
+    from slide_gym.experiments.report import _planners_markdown
+
+    def row(planner: str, scale: float, t: float | None, rejected: int = 0) -> dict:
+        case = {"planner": planner, "scale": scale}
+        checks = {"overhang": rejected, "grasp_ik": 1, "valid": 1}
+        stats = {"pairs_rejected": rejected, "pair_checks": checks, "iterations": 4}
+        stats["tree_nodes"] = 40
+        status = "solved" if t is not None else "timeout"
+        return {"case": case, "status": status, "planning_time_s": t or 10.0, "stats": stats}
+
+    rows = [row("regions", 1.0, t, 3) for t in (0.1, 0.2, 0.3, 0.4)]
+    rows += [row("cbirrt", 1.0, t) for t in (0.1, 0.1, 0.2, 0.5)]
+    rows += [row("cbirrt2", 1.0, t) for t in (0.3, 0.3, 0.3, 0.3)]
+    rows += [row("regions", 0.5, t) for t in (0.1, 0.1, 0.1, None)]
+    rows += [row("cbirrt", 0.5, t) for t in (0.2, 0.2, 0.2, 0.2)]
+    text = "\n".join(_planners_markdown(rows, 10.0))
+    assert (
+        "| regions | 1 | 4 | 100.0 % (" in text
+        and "| 0.250 s | 0.400 s | 0.250 s | 3.0 | 4.0 |" in text
+    )
+    assert "| regions | 0.5 | 4 | 75.0 % (" in text and "| 0.100 s | unsolved | 0.100 s |" in text
+    assert "scale 1 median: regions 0.250 s against cbirrt 0.150 s" in text
+    assert "scale 1 p90: regions 0.400 s against cbirrt2 0.300 s" in text  # the best per statistic
+    assert "scale 0.5 median: regions 0.100 s against cbirrt 0.200 s" in text
+    assert (
+        "**Not met**: scale 1 median (100 ms behind cbirrt); scale 1 p90 (100 ms behind cbirrt2); "
+        "scale 0.5 p90 (too few regions queries solved behind cbirrt)."
+    ) in text
 
 
 def test_target_lines_say_what_was_asked_measured_and_missed() -> None:

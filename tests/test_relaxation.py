@@ -151,7 +151,7 @@ def test_a_tiny_run_writes_rows_and_a_report(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     cases = _subset()
-    monkeypatch.setattr(run, "experiment_cases", lambda name, version, quick: cases)
+    monkeypatch.setattr(run, "experiment_cases", lambda name, version, quick, *size, **kw: cases)
     summary = run.run_experiment("relaxation", quick=True, workers=1, out=tmp_path)
     assert summary["runs"] == summary["of"] == 2
     rows = [json.loads(line) for line in Path(summary["file"]).read_text().splitlines()]
@@ -162,7 +162,7 @@ def test_a_tiny_run_writes_rows_and_a_report(
     assert plan["parameters"]["dz"] == ZERO
     assert {"success", "slide_error_m", "slide_error_rad", "failure"} <= episode.keys()
     assert episode["dz"] == ZERO and episode["planner"] == "regions"
-    monkeypatch.setattr(report, "experiment_cases", lambda name, version, quick: cases)
+    monkeypatch.setattr(report, "experiment_cases", lambda name, version, quick, *size, **kw: cases)
     assert main(["report", str(tmp_path)]) == 0
     text = (tmp_path / "report.md").read_text()
     assert "## relaxation-quick" in text and "| dZ* = 0 cm | 1 |" in text

@@ -23,13 +23,16 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
         backend=args.backend,
         out=args.out,
         address=args.ray_address,
+        poses=args.poses,
+        budget=args.budget,
     )
     print(json.dumps(summaries, indent=2))
     return 0
 
 
 def add_parsers(sub: Any) -> None:
-    """``slide-gym experiment NAME [--quick] [--workers W] [--backend local|ray] [--out DIR]``."""
+    """``slide-gym experiment NAME [--quick | --poses N --budget S] [--workers W]
+    [--backend local|ray] [--out DIR]``."""
     from slide_gym.experiments.run import OUT
     from slide_gym.experiments.specs import EXPERIMENTS, LATER, QUICK_BUDGET, TIME_BUDGET
 
@@ -51,7 +54,8 @@ def add_parsers(sub: Any) -> None:
         "planning per episode; relaxation: the regions expert planning with the contact "
         "band of dZ* = 0, 0.5, 2 cm and with its own, 9 objects x 4 tables x 2 seeds, and the "
         "regions planner with the projection variants steps, nodes and orientation at each "
-        "dZ* on fig11's problems (10 poses, 20 s per query); otherwise "
+        "dZ* on fig11's problems (10 poses, 20 s per query); planners: fig11's problems with "
+        "regions, cbirrt and cbirrt2 at dZ* = 2 cm, at scales 1 and 0.5; otherwise "
         f"{TIME_BUDGET:g} s per query. Each query is one JSON line, written as it finishes, "
         "to DIR/NAME-VERSION.jsonl (VERSION: the code version, package version + git commit "
         "+ dirty.HASH for uncommitted changes): a re-run of the same code skips finished "
@@ -60,6 +64,7 @@ def add_parsers(sub: Any) -> None:
         [
             "slide-gym experiment all --quick",
             "slide-gym experiment fig11 --workers 2 --out results/experiments",
+            "slide-gym experiment planners --poses 10 --budget 10 --workers 1",
         ],
     )
     name_help = f"one of {', '.join(names)} ({ALL}: {', '.join(EXPERIMENTS)} in turn)"
@@ -69,6 +74,19 @@ def add_parsers(sub: Any) -> None:
         action="store_true",
         help=f"a smoke test: square table, 2 objects, 1 start pose, {QUICK_BUDGET:g} s per "
         "query, into DIR/NAME-quick-VERSION.jsonl",
+    )
+    p.add_argument(
+        "--poses",
+        type=int,
+        metavar="N",
+        help="a reduced run: the first N start poses only, into DIR/NAME-posesN-VERSION.jsonl",
+    )
+    p.add_argument(
+        "--budget",
+        type=float,
+        metavar="S",
+        help="a reduced run: S planning seconds per query (expert episodes keep their cap), "
+        "into DIR/NAME-budgetSs-VERSION.jsonl (with --poses: NAME-posesN-budgetSs-VERSION)",
     )
     p.add_argument(
         "--workers", type=int, metavar="N", help="worker processes (default: one per core)"

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from slide_gym.experiments.run import file_tag, parse_size_tag
 from slide_gym.experiments.specs import (
     CUTS,
     DZ_MINUS,
@@ -38,6 +39,8 @@ PAPER = {
     "restart": "(not in the paper: the period of our CBiRRT baseline's restarts).",
     "agents": "(not in the paper: the planners driving the expert in physics, slide, grasp "
     "and lift).",
+    "planners": "(Fig. 11, and Fig. 10 for the half scale) CBiRRT and CBiRRT2 below ours; "
+    "planning time similar at half scale.",
     "relaxation": "(Fig. 11) 2 % of queries solved within 60 s with dZ* = 0; 90 % at 53 s "
     "with dZ* = 0.5 cm; 90 % within 20 s and 99 % at 60 s with dZ* = 2 cm. The expert's "
     "episodes are not in the paper.",
@@ -53,7 +56,8 @@ SCALE_RATIO = 1.5
 
 
 def load_experiments(results: Path) -> dict[str, tuple[str, list[dict[str, Any]]]]:
-    """Experiment name -> (code version, rows) from the largest file of each experiment
+    """Experiment name (with its size tag, e.g. ``fig11-quick``,
+    ``planners-poses10-budget10s``) -> (code version, rows) from the largest file of each
     (``*.jsonl`` or gzip-compressed ``*.jsonl.gz``); on a tie, the current code version's."""
     current = code_version()
     best: dict[str, tuple[tuple[int, bool], str, list[dict[str, Any]]]] = {}
@@ -61,7 +65,11 @@ def load_experiments(results: Path) -> dict[str, tuple[str, list[dict[str, Any]]
         rows = [r for r in load_results(path) if "case" in r]
         if not rows:
             continue
-        name = rows[0]["case"]["experiment"] + ("-quick" if "-quick-" in path.name else "")
+        experiment = rows[0]["case"]["experiment"]
+        tag = file_tag(path.name, experiment)
+        if tag is None:  # a renamed file: only a quick run is told apart
+            tag = "quick" if "-quick-" in path.name else ""
+        name = experiment + (f"-{tag}" if tag else "")
         version = rows[0]["case"]["code_version"]
         rank = (len(rows), version == current)
         if name not in best or rank > best[name][0]:
@@ -77,6 +85,8 @@ def condition(row: dict[str, Any]) -> str:
         if c["planner"] == "regions":
             return f"regions dZ*={100 * (c['dz'][1] - c['dz'][0]):g} cm"
         return c["planner"]
+    if name == "planners":
+        return f"{c['planner']} x{c['scale']:g}"
     if name == "fig12":
         return f"N*={c['n_star']}"
     if name == "restart":
@@ -103,6 +113,7 @@ def _condition_order(row: dict[str, Any]) -> tuple[Any, ...]:
         dz[1] - dz[0],
         c.get("n_star", 0),
         c.get("restart_iterations", 0),
+        -c.get("scale", 1.0),
     )
 
 
@@ -189,23 +200,28 @@ def write_report(results: Path, out: Path | None = None) -> Path:
         f"{platform.platform()}, {os.cpu_count()} cores, Python {platform.python_version()}.",
         "",
     ]
-    missing = [n for n in EXPERIMENTS if n not in experiments and f"{n}-quick" not in experiments]
+    run = {rows[0]["case"]["experiment"] for _, rows in experiments.values()}
+    missing = [n for n in EXPERIMENTS if n not in run]
     if missing:
         lines += [f"Not run yet (no results here): {', '.join(missing)}.", ""]
     for name, (version, rows) in sorted(experiments.items()):
-        base = name.removesuffix("-quick")
+        base = rows[0]["case"]["experiment"]
+        tag = name.removeprefix(base).removeprefix("-")
+        quick = tag == "quick"
         budget = max(r["case"]["time_budget"] for r in rows)
-        planned = len(experiment_cases(base, version, quick=name.endswith("-quick")))
+        planned = len(experiment_cases(base, version, **parse_size_tag(tag)))
         size = f"{len(rows)} runs" + ("" if len(rows) == planned else f" of {planned} planned")
+        if tag and not quick:
+            size += f" (a reduced run: {tag})"
         lines += [
             f"## {name}",
             "",
             f"{size}, code version `{version}`, {_budgets(rows)}. Paper: {PAPER.get(base, 'n/a')}",
             "",
         ]
-        if base in CUTS and not name.endswith("-quick"):
+        if base in CUTS and not tag:
             lines += [f"Size cut to fit the machine: {CUTS[base]}.", ""]
-        if base in ("fig11", "restart", "fig12"):
+        if base in ("fig11", "restart", "fig12", "planners"):
             png = out / f"{name}.png"
             plot_success(rows, budget, png, f"{name}: success against planning time")
             lines += [f"![{name}]({png.name})", ""]
@@ -224,10 +240,12 @@ def write_report(results: Path, out: Path | None = None) -> Path:
                 lines += _scale_markdown(rows)
         if base == "fig11":
             lines += _speed_markdown(rows, budget)
+        if base == "planners":
+            lines += _planners_markdown(rows, budget)
         if base == "agents":
             lines += _agents_markdown(rows)
         if base == "relaxation":
-            lines += _relaxation_markdown(rows, name, out, quick=name.endswith("-quick"))
+            lines += _relaxation_markdown(rows, name, out, quick=quick)
     path = out / "report.md"
     path.write_text("\n".join(lines) + "\n")
     return path
@@ -344,6 +362,113 @@ def _scale_markdown(rows: list[dict[str, Any]]) -> list[str]:
         f"against {means[1.0]:.2f} s at full scale, {ratio:.2f}x. {verdict}{why}",
         "",
     ]
+
+
+PAIR_REJECTIONS = ("rotation", "overhang", "reach", "grasp_ik", "transfer", "timeout")
+"""The pair validator's rejection counters (``stats.pair_checks``): the plate would turn too
+far, it would not overhang u* with its centroid on the table (or no grasp line), the grasp
+is out of reach, no IK for the grasp, no motion to it, out of time."""
+
+
+def _planners_markdown(rows: list[dict[str, Any]], budget: float) -> list[str]:
+    """Per planner and scale: planning-time statistics and what pair validation rejected,
+    then the target: the regions planner's median and 90th percentile no worse than the best
+    baseline's at each scale."""
+    lines = [
+        f"| planner | scale | runs | solved within {budget:g} s | median | p90 | mean (solved) "
+        "| connected pairs rejected / query | pair checks rejected / query | iterations / query "
+        "| tree nodes / query |",
+        "|---" * 11 + "|",
+    ]
+    stats: dict[tuple[str, float], tuple[float, float]] = {}
+    planners = sorted({r["case"]["planner"] for r in rows}, key=lambda p: (p != "regions", p))
+    for scale in sorted({r["case"]["scale"] for r in rows}, reverse=True):
+        for planner in planners:
+            mine = [
+                r for r in rows if r["case"]["planner"] == planner and r["case"]["scale"] == scale
+            ]
+            if not mine:
+                continue
+            t = solve_times(mine)
+            k = int(np.isfinite(t).sum())
+            lo, hi = wilson_interval(k, len(t))
+            median, p90 = float(np.median(t)), _quantile_90(t)
+            stats[(planner, scale)] = (median, p90)
+            solved = t[np.isfinite(t)]
+            mean = f"{solved.mean():.3f} s" if len(solved) else "n/a"
+            lines.append(
+                f"| {planner} | {scale:g} | {len(mine)} | {100 * k / len(t):.1f} % "
+                f"({100 * lo:.0f}-{100 * hi:.0f}) | {_seconds(median)} | {_seconds(p90)} | {mean} "
+                f"| {_per_query(mine, lambda s: s['pairs_rejected'])} "
+                f"| {_per_query(mine, _checks_rejected)} "
+                f"| {_per_query(mine, lambda s: s['iterations'])} "
+                f"| {_per_query(mine, lambda s: s['tree_nodes'], '.0f')} |"
+            )
+    lines += [
+        "",
+        "Connected pairs rejected: start/goal trees that connected and then failed pair "
+        "validation (`stats.pairs_rejected`). Pair checks rejected: every failed pair "
+        "validation (`stats.pair_checks`), including the pairs `cbirrt` draws and rejects "
+        "before it searches, which grow no tree.",
+        "",
+        *_planners_target(stats),
+    ]
+    return lines
+
+
+def _planners_target(stats: dict[tuple[str, float], tuple[float, float]]) -> list[str]:
+    """The target line: per scale, regions against the best baseline for each statistic."""
+    parts, misses = [], []
+    for scale in sorted({s for _, s in stats}, reverse=True):
+        ours = stats.get(("regions", scale))
+        others = {p: v for (p, s), v in stats.items() if s == scale and p != "regions"}
+        if ours is None or not others:
+            continue
+        for i, what in enumerate(("median", "p90")):
+            best = min(others, key=lambda p: others[p][i])
+            mine, theirs = ours[i], others[best][i]
+            parts.append(
+                f"scale {scale:g} {what}: regions {_seconds(mine)} against {best} "
+                f"{_seconds(theirs)}"
+            )
+            if not mine <= theirs:
+                over = (
+                    f"{1000 * (mine - theirs):.0f} ms"
+                    if np.isfinite(mine)
+                    else "too few regions queries solved"
+                )
+                misses.append(f"scale {scale:g} {what} ({over} behind {best})")
+    if not parts:
+        return []
+    verdict = "**Met**." if not misses else f"**Not met**: {'; '.join(misses)}."
+    return [
+        "Target (where sampleable regions pay off): asked for the regions planner's median "
+        "and 90th-percentile planning time no worse than the best baseline's at both scales; "
+        f"measured {'; '.join(parts)}. {verdict}",
+        "",
+    ]
+
+
+def _seconds(value: float) -> str:
+    return f"{value:.3f} s" if np.isfinite(value) else "unsolved"
+
+
+def _checks_rejected(stats: dict[str, Any]) -> float:
+    checks = stats.get("pair_checks")
+    if not checks:
+        return math.nan
+    return float(sum(checks.get(k, 0) for k in PAIR_REJECTIONS))
+
+
+def _per_query(rows: list[dict[str, Any]], value: Any, fmt: str = ".1f") -> str:
+    """The mean of ``value(stats)`` per query, ``n/a`` where rows do not record it."""
+    try:
+        values = [float(value(r["stats"])) for r in rows]
+    except (KeyError, TypeError):
+        return "n/a"
+    if not values or not all(np.isfinite(values)):
+        return "n/a"
+    return format(float(np.mean(values)), fmt)
 
 
 def _agents_markdown(rows: list[dict[str, Any]]) -> list[str]:

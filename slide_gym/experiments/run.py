@@ -5,6 +5,7 @@ re-run skips finished ones, Ctrl-C keeps them)."""
 from __future__ import annotations
 
 import dataclasses
+import re
 import sys
 from pathlib import Path
 from typing import Any
@@ -22,10 +23,64 @@ REJECTED = "rejected"
 """Row status of a scene the planner refuses before planning (the reason says why)."""
 
 
-def results_file(out: Path, name: str, version: str, quick: bool = False) -> Path:
-    """``OUT/NAME-VERSION.jsonl`` (``NAME-quick-VERSION.jsonl`` with ``quick``): each code
-    version and size gets its own file, so rows of different code never mix."""
-    return out / f"{name}{'-quick' if quick else ''}-{version}.jsonl"
+_TAG_PART = re.compile(r"quick|poses[0-9]+|budget[0-9.]+s")
+"""One part of a results file's size tag (a code version starts with a digit instead)."""
+
+
+def size_tag(quick: bool = False, poses: int | None = None, budget: float | None = None) -> str:
+    """A run's size in its file name: ``""`` (full size), ``"quick"``, or for a reduced run
+    ``"posesN"`` and ``"budgetSs"`` joined by ``-`` (e.g. ``poses10-budget10s``)."""
+    if quick:
+        return "quick"
+    parts = ([] if poses is None else [f"poses{poses}"]) + (
+        [] if budget is None else [f"budget{budget:g}s"]
+    )
+    return "-".join(parts)
+
+
+def parse_size_tag(tag: str) -> dict[str, Any]:
+    """:func:`size_tag`'s inverse, as ``experiment_cases`` keywords (quick, poses,
+    time_budget); a ValueError for a tag it does not write."""
+    out: dict[str, Any] = {"quick": False, "poses": None, "time_budget": None}
+    for part in tag.split("-") if tag else []:
+        if part == "quick":
+            out["quick"] = True
+        elif part.startswith("poses") and _TAG_PART.fullmatch(part):
+            out["poses"] = int(part[5:])
+        elif part.startswith("budget") and _TAG_PART.fullmatch(part):
+            out["time_budget"] = float(part[6:-1])
+        else:
+            raise ValueError(f"not a size tag: {tag!r}")
+    return out
+
+
+def results_file(
+    out: Path,
+    name: str,
+    version: str,
+    quick: bool = False,
+    *,
+    poses: int | None = None,
+    budget: float | None = None,
+) -> Path:
+    """``OUT/NAME-VERSION.jsonl`` (``NAME-TAG-VERSION.jsonl`` with :func:`size_tag`'s
+    ``TAG``, e.g. ``quick``): each code version and size gets its own file, so rows of
+    different code or size never mix."""
+    tag = size_tag(quick, poses, budget)
+    return out / f"{name}{'-' + tag if tag else ''}-{version}.jsonl"
+
+
+def file_tag(filename: str, name: str) -> str | None:
+    """The size tag of results file ``filename`` of experiment ``name`` (``""``: full size),
+    or None when the name is not ``NAME-[TAG-]VERSION.jsonl[.gz]``."""
+    stem = re.sub(r"\.jsonl(\.gz)?$", "", filename)
+    if stem == filename or not stem.startswith(f"{name}-"):
+        return None
+    parts = stem[len(name) + 1 :].split("-")
+    tag = []
+    while len(parts) > 1 and _TAG_PART.fullmatch(parts[0]):
+        tag.append(parts.pop(0))
+    return "-".join(tag)
 
 
 def experiment_case(case: Case) -> dict[str, Any]:
@@ -84,14 +139,20 @@ def check_file(path: Path, version: str) -> None:
             )
 
 
-def other_versions(out: Path, name: str, version: str, quick: bool = False) -> list[Path]:
+def other_versions(
+    out: Path,
+    name: str,
+    version: str,
+    quick: bool = False,
+    *,
+    poses: int | None = None,
+    budget: float | None = None,
+) -> list[Path]:
     """Result files of ``name`` (same size) by other code versions in ``out``: not reused."""
-    mine = results_file(out, name, version, quick)
-    head = results_file(out, name, "", quick).name[: -len(".jsonl")]
+    mine = results_file(out, name, version, quick, poses=poses, budget=budget)
+    tag = size_tag(quick, poses, budget)
     return sorted(
-        p
-        for p in out.glob(f"{head}*.jsonl")
-        if p != mine and (quick or not p.name.startswith(f"{name}-quick-"))
+        p for p in out.glob(f"{name}-*.jsonl") if p != mine and file_tag(p.name, name) == tag
     )
 
 
@@ -102,18 +163,21 @@ def run_experiment(
     backend: str = "local",
     out: Path = OUT,
     address: str | None = None,
+    poses: int | None = None,
+    budget: float | None = None,
 ) -> dict[str, Any]:
     """Run (or resume) experiment ``name`` into :func:`results_file`; a summary of its rows.
-    ``backend`` and ``address``: see :func:`~slide_gym.jobs.run_cases`."""
+    ``backend`` and ``address``: see :func:`~slide_gym.jobs.run_cases`; ``poses`` and
+    ``budget``: a reduced run (the first start poses, seconds per query), into its own file."""
     check_backend(backend, address)
     if name in LATER:
         implemented = ", ".join(EXPERIMENTS)
         raise ValueError(f"experiment {name!r} is not implemented yet; run one of {implemented}")
     version = code_version()
-    cases = experiment_cases(name, version, quick)
-    path = results_file(out, name, version, quick)
+    cases = experiment_cases(name, version, quick, poses, budget)
+    path = results_file(out, name, version, quick, poses=poses, budget=budget)
     check_file(path, version)
-    for old in other_versions(out, name, version, quick):
+    for old in other_versions(out, name, version, quick, poses=poses, budget=budget):
         print(f"{name}: not reusing {old} (another code version)", file=sys.stderr)
     rows = run_cases(
         experiment_case, cases, path, workers, desc=name, backend=backend, address=address
@@ -125,6 +189,7 @@ def run_experiment(
     return {
         "experiment": name,
         "quick": quick,
+        "size": size_tag(quick, poses, budget) or "full",
         "code_version": version,
         "file": str(path),
         "runs": len(rows),
@@ -140,10 +205,18 @@ def run_experiments(
     backend: str = "local",
     out: Path = OUT,
     address: str | None = None,
+    poses: int | None = None,
+    budget: float | None = None,
 ) -> list[dict[str, Any]]:
-    """:func:`run_experiment` for each of ``names`` in turn (``all``: every implemented one)."""
+    """:func:`run_experiment` for each of ``names`` in turn (``all``: every implemented one);
+    a reduced size (``poses``, ``budget``) is checked for every one before any runs."""
     check_backend(backend, address)
     if workers is not None and workers < 1:
         raise ValueError(f"--workers must be >= 1, got {workers}")
     expanded = [n for name in names for n in (EXPERIMENTS if name == "all" else (name,))]
-    return [run_experiment(n, quick, workers, backend, out, address) for n in expanded]
+    for n in expanded:
+        if n in EXPERIMENTS:
+            experiment_cases(n, "check", quick, poses, budget)  # a bad size: before any work
+    return [
+        run_experiment(n, quick, workers, backend, out, address, poses, budget) for n in expanded
+    ]

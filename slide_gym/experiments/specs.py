@@ -56,7 +56,15 @@ QUICK_OBJECTS = ("square", "L")
 """``--quick``: one paper object and one letter, one start pose each, square table only."""
 QUICK_N_STARS = (1, 100)
 """fig12's N* with ``--quick``."""
-POSES = {"fig10": 50, "fig11": 100, "fig12": 20, "restart": 20, "agents": 10, "relaxation": 2}
+POSES = {
+    "fig10": 50,
+    "fig11": 100,
+    "fig12": 20,
+    "restart": 20,
+    "agents": 10,
+    "relaxation": 2,
+    "planners": 100,
+}
 """Random start poses per object (seeds 0..n-1) at full size; the pose is the outer loop,
 so an interrupted run holds a balanced share of every condition. fig12's 20 (the issue gives
 none): 5 N* x 5 objects x 20 = 500 queries, a fifth of fig11; the restart sweep's 20: 6
@@ -68,7 +76,7 @@ CUTS = {
     f"({5 * REFERENCE_POSES} queries, not 500)",
 }
 """Where an experiment is smaller than the issue asks, and why (the report quotes it)."""
-EXPERIMENTS = ("fig10", "fig11", "fig12", "restart", "agents", "relaxation")
+EXPERIMENTS = ("fig10", "fig11", "fig12", "restart", "agents", "relaxation", "planners")
 """The experiments; ``all`` runs them in this order."""
 LATER: tuple[str, ...] = ()
 """Experiments of the issue still to come (none)."""
@@ -173,6 +181,22 @@ def _restart(version: str, objects: Sequence[str], tables: Sequence[str], **kw: 
 
 AGENT_PLANNERS = ("regions", "cbirrt", "cbirrt2")
 """The agents experiment's planners, each driving the expert."""
+PLANNERS = ("regions", "cbirrt", "cbirrt2")
+"""The ``planners`` experiment's planners (fig11's three, all at dZ* = :data:`DZ_STAR`)."""
+
+
+def _planners(version: str, objects: Sequence[str], tables: Sequence[str], **kw: Any) -> list[Case]:
+    """fig11's three planners at dZ* = 2 cm on fig11's problems, at each of :data:`SCALES`
+    (same seeds at both scales; no OMPL reference)."""
+    return [
+        case("planners", o, TABLE, i, version, scale=s, planner=p, time_budget=kw["time_budget"])
+        for i in range(kw["poses"])
+        for s in SCALES
+        for o in objects
+        for p in PLANNERS
+    ]
+
+
 AGENT_BUDGET = 10.0
 """The agents' planning seconds per episode (the expert's default)."""
 
@@ -291,30 +315,53 @@ _BUILDERS = {
     "restart": _restart,
     "agents": _agents,
     "relaxation": _relaxation,
+    "planners": _planners,
 }
 
 
-def experiment_cases(name: str, version: str, quick: bool = False) -> list[Case]:
+def experiment_cases(
+    name: str,
+    version: str,
+    quick: bool = False,
+    poses: int | None = None,
+    time_budget: float | None = None,
+) -> list[Case]:
     """The cases of experiment ``name`` (one of :data:`EXPERIMENTS`), stamped ``version``.
 
     Full size: fig10 2 scales x 4 tables x 9 objects x 50 poses (3600); fig11 5 objects x 100
     poses x (3 dZ* + 3 baselines) plus OMPL on 20 poses (3100); fig12 5 N* x 5 objects x 20
-    poses (500); restart 6 settings x 5 objects x 20 poses (600); 60 s each; agents 3 planners x
+    poses (500); restart 6 settings x 5 objects x 20 poses (600); planners 3 planners x 2
+    scales x 5 objects x 100 poses (3000); 60 s each; agents 3 planners x
     9 objects x 4 tables x 10 seeds (1080 episodes, 10 s planning each); relaxation 4 contact
     bands (dZ* = 0, 0.5, 2 cm and the expert's own) x 9 objects x 4 tables x 2 seeds (288
     episodes, 10 s planning each) and 3 planner variants x 3 dZ* x 5 objects x 10 poses (450
     queries, 20 s each; about 25 min with 2 workers). ``quick``: the square table, objects
     :data:`QUICK_OBJECTS`, one pose, 2 s, fig12 at N* = 1 and 100 only (fig10 4, fig11 14, fig12
-    4, restart 12 queries, agents 6 episodes, relaxation 8 episodes and 9 queries on the paper
-    object: a CI smoke test).
+    4, restart 12 queries, planners 12, agents 6 episodes, relaxation 8 episodes and 9 queries
+    on the paper object: a CI smoke test).
+
+    A reduced run (not with ``quick``): ``poses`` keeps the first start poses of the full size
+    (fewer, never more), ``time_budget`` replaces the planning seconds per query (expert
+    episodes keep their own cap).
     """
     if name not in _BUILDERS:
         raise ValueError(f"unknown experiment {name!r}; implemented: {', '.join(EXPERIMENTS)}")
+    if quick and (poses is not None or time_budget is not None):
+        raise ValueError("--quick has its own size; leave out --poses and --budget")
+    if poses is not None and not 1 <= poses <= POSES[name]:
+        raise ValueError(f"--poses must be 1 to {POSES[name]} for {name}, got {poses}")
+    if time_budget is not None and not time_budget > 0:
+        raise ValueError(f"--budget must be > 0 s, got {time_budget:g}")
     if quick:
         kw: dict[str, Any] = {"poses": 1, "time_budget": QUICK_BUDGET, "n_stars": QUICK_N_STARS}
         return _BUILDERS[name](version, QUICK_OBJECTS, (TABLE,), **kw)
     objects = (
         PAPER_OBJECTS + LETTERS if name in ("fig10", "agents", "relaxation") else PAPER_OBJECTS
     )
-    kw = {"poses": POSES[name], "time_budget": TIME_BUDGET, "variant_poses": VARIANT_POSES}
+    n = POSES[name] if poses is None else poses
+    kw = {
+        "poses": n,
+        "time_budget": TIME_BUDGET if time_budget is None else float(time_budget),
+        "variant_poses": VARIANT_POSES if poses is None else min(poses, VARIANT_POSES),
+    }
     return _BUILDERS[name](version, objects, TABLE_NAMES, **kw)

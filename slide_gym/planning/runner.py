@@ -99,5 +99,9 @@ def report(problem: TopSlideProblem, result: PlanResult, planner: str, seed: int
         "table_height": problem.table.height,
         "object_thickness": problem.object.thickness,
         "parameters": extra.get("parameters"),
-        "stats": {**raw["stats"], "restarts": extra.get("restarts", 0)},
+        "stats": {
+            **raw["stats"],
+            "restarts": extra.get("restarts", 0),
+            "pair_checks": extra.get("validator_counts", {}),
+        },
     }

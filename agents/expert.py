@@ -492,8 +492,9 @@ class SlideGraspExpert:
             ok, info = self._reaim(actual, budget, self.grasp_seed)
             if info.get("timeout"):
                 return self._fail("planning budget used up while re-aiming the grasp")
+        what = "slid" if self.report.planned else "lifted off"  # no plan: it lay there
         self.report.events.append(
-            f"slid: overhang {ov.u:.3f} m, error {self.report.slide_error_m:.3f} m "
+            f"{what}: overhang {ov.u:.3f} m, error {self.report.slide_error_m:.3f} m "
             f"{self.report.slide_error_rad:.3f} rad, grasp {'ok' if ok else info.get('reason')}"
         )
         if ok:

@@ -105,6 +105,14 @@ class TopSlidePlanner(Planner):
     ):
         if planner not in PLANNERS:
             raise ValueError(f"planner must be one of {', '.join(PLANNERS)}, got {planner!r}")
+        if start_config is not None:
+            if planner != "regions":
+                raise ValueError(f"start_config needs the regions planner, not {planner!r}")
+            start_config = np.asarray(start_config, dtype=float)
+            if start_config.shape != (7,) or not np.isfinite(start_config).all():
+                raise ValueError(
+                    f"start_config must be 7 finite joint angles, got {start_config.tolist()}"
+                )
         self.problem = problem
         self.name = planner
         self.seed = seed if not isinstance(seed, np.random.Generator) else None
@@ -154,13 +162,8 @@ class TopSlidePlanner(Planner):
         if start_config is not None:
             self._fix_start(start_config)
 
-    def _fix_start(self, q: Any) -> None:
-        """Check and project a fixed start configuration (see the class docstring)."""
-        if self.name != "regions":
-            raise ValueError(f"start_config needs the regions planner, not {self.name!r}")
-        q = np.asarray(q, dtype=float)
-        if q.shape != (7,) or not np.isfinite(q).all():
-            raise ValueError(f"start_config must be 7 finite joint angles, got shape {q.shape}")
+    def _fix_start(self, q: np.ndarray) -> None:
+        """Project and check a fixed start configuration (see the class docstring)."""
         q_p = self.project(q)
         if q_p is None:
             self._bad_start = "the start configuration cannot be projected onto the manifold"

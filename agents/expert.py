@@ -18,10 +18,13 @@ fingertip is pressed, :class:`~agents.tracking.ContactTracker` corrects the plan
 
 The expert takes over from any state, not only from an episode's start (what DAgger needs
 of it): from its first observation it reads where things are. A plate in the closed hand is
-lifted and held; a fingertip pressed on the plate (or low near the table) first rises
-(``release``); a plate
-already graspable gets its grasp at once; a plate partly over the edge is planned from where
-it lies (as a replan is); anything else is planned as at the start.
+lifted and held. A fingertip pressed on a plate not yet graspable slides on: a slide planned
+from the pressed arm (the planner's fixed start, :mod:`agents.takeover`) is queued, and what
+follows a slide follows; on a plate already graspable it lifts off as after a slide and
+grasps it as it lies. A fingertip low near the table, or pressed where no slide on is found,
+first rises (``release``). A plate already graspable gets its grasp at once; a plate partly
+over the edge is planned from where it lies (as a replan is); anything else is planned as at
+the start.
 
 Same seed, same episode, on any machine: every planning step is capped by a count
 (``ExpertParams.strict_plan_iterations``, ``grasp_iterations``, ``route_iterations``); the
@@ -43,6 +46,7 @@ from agents.ee_actions import EEActions
 from agents.params import ExpertParams, plate_slide_params, relaxed_slide_params
 from agents.record import ExpertReport
 from agents.scene import SceneLibrary
+from agents.takeover import lift_off_pressed, slide_on
 from agents.tracking import ContactTracker, cartesian_line, rise
 from agents.trajectory import Segment, time_segment
 from slide_gym.geometry import (
@@ -62,7 +66,7 @@ from slide_gym.planning.api import (
     slid_object_pose,
     solve_ik,
 )
-from slide_gym.planning.result import PlanStatus
+from slide_gym.planning.result import PlanResult, PlanStatus
 from slide_gym.robot.kinematics import FastChain, fingertip_chain, grasp_chain
 from slide_gym.robot.model import ARM_LOWER, ARM_UPPER, READY_ARM_Q
 
@@ -130,6 +134,7 @@ class SlideGraspExpert:
         self.centroid_margin = slide_params.centroid_margin  # set per plate by _slide_params
         self._steps = 0  # actions returned so far
         self._taken_over = False  # the first observation's state has been read
+        self.grasp_seed: np.ndarray | None = None  # the plan's grasp, an IK seed for re-aiming
         self.report = ExpertReport()
 
     # ------------------------------------------------------------------ act
@@ -241,18 +246,27 @@ class SlideGraspExpert:
         pose = self._object_pose(obs)
         placed = transform_polygon(self.obj.polygon, *pose)
         tip = np.asarray(obs["fingertip_pose"][:3], dtype=float)
+        graspable = overhang(placed, self.table.polygon).graspable(p.grasp_u_star)
         if tip[2] - float(obs["table_height"][0]) < LOW_TIP_HEIGHT:
+            on_plate = placed.buffer(0.01).contains(shapely.Point(tip[0], tip[1]))
+            where = "on the plate" if on_plate else "low over the table"
+            if on_plate:
+                n = len(self.report.events)
+                what, done = ("lift off", "lifted it off") if graspable else ("slide on", "slid on")
+                why = lift_off_pressed(self, obs) if graspable else slide_on(self, obs)
+                if why is None:
+                    self.report.events.insert(n, f"took over with the fingertip {where}: {done}")
+                    return True
+                self.report.events.append(f"no {what} from here ({why})")
             h = p.lift_off_height
             line = rise(self.tip, self.q_cmd, (h, h / 2, h / 4), True, self.rng)
             if line is None:
                 self._fail("no IK solution to raise the fingertip")
                 return True
-            on_plate = placed.buffer(0.01).contains(shapely.Point(tip[0], tip[1]))
-            where = "on the plate" if on_plate else "low over the table"
             self.report.events.append(f"took over with the fingertip {where}: raised it")
             self._push(Segment("release", line, 1.0, p.lift_off_speed), self.tip)
             return True
-        if overhang(placed, self.table.polygon).graspable(p.grasp_u_star):
+        if graspable:
             self.report.events.append("took over with the plate graspable: grasping it")
             return self._grasp_as_it_lies(pose)
         return False
@@ -314,14 +328,7 @@ class SlideGraspExpert:
             if result.status is PlanStatus.INFEASIBLE:
                 return self._fail(f"plan infeasible: {result.reason}")
             return self._fail(f"no plan, {result.status.value}: {result.reason}")
-        self.report.planned = True
-        self.object_start = pose
-        self.result = result
-        gamma_s, gamma_g = planar_pose(
-            self.tip.forward(np.stack([result.start_config, result.goal_config]))
-        )
-        self.predicted = slid_object_pose(gamma_s, gamma_g, pose)
-        self.report.object_predicted_pose = self.predicted.tolist()
+        self.use_plan(self.planner, result, pose)
         why = self._queue_press_and_slide(result.start_config, result.path, pose)
         if why is None:
             return None
@@ -330,6 +337,21 @@ class SlideGraspExpert:
         self.report.events.append(f"{why}: planning again")  # nothing has moved yet
         self.report.replans += 1
         return self._plan(obs)
+
+    def use_plan(self, planner: TopSlidePlanner, result: PlanResult, pose: np.ndarray) -> None:
+        """Adopt a solved plan from the plate at ``pose``: its planner, Eq. 2's prediction."""
+        if self.planner is not None and self.planner is not planner:
+            self.planner.close()
+        self.planner, self.result, self.object_start = planner, result, pose
+        self.report.planned = True
+        self.report.plan_status = result.status.value
+        gamma_s, gamma_g = planar_pose(
+            self.tip.forward(np.stack([result.start_config, result.goal_config]))
+        )
+        self.predicted = slid_object_pose(gamma_s, gamma_g, pose)
+        self.report.object_predicted_pose = self.predicted.tolist()
+        grasp = result.extra.get("grasp_config")
+        self.grasp_seed = None if grasp is None else np.asarray(grasp, dtype=float)
 
     def _ik(self, chain: FastChain, t: np.ndarray, seed: np.ndarray) -> np.ndarray | None:
         return solve_ik(chain, IKTarget(t[:3, 3], t[:3, :3]), self.rng, seed[None])
@@ -362,6 +384,13 @@ class SlideGraspExpert:
         self._push(approach, self.tip)
         press = Segment("press", down, 1.0, p.press_speed, hold_s=p.press_hold_s)
         self._push(press, self.tip, track=True)
+        self.queue_slide(q_s, path, pose)
+        return None
+
+    def queue_slide(self, q_s: np.ndarray, path: np.ndarray, pose: np.ndarray) -> None:
+        """Queue the planned slide ``path`` (tracked, each step with the plate's Eq. 2 xy for
+        the plate at ``pose`` pressed at ``q_s``)."""
+        p = self.params
         first = len(self.queue)
         slide = Segment("slide", path, 1.0, p.slide_speed, hold_s=p.slide_settle_s, ramp_s=p.ramp_s)
         self._push(slide, self.tip, track=True)
@@ -370,7 +399,6 @@ class SlideGraspExpert:
         for step, gamma in zip(list(self.queue)[first:], gammas[1:], strict=True):
             step.object_xy = slid_object_pose(gammas[0], gamma, pose)[:2]
         self.q_slide_end = np.asarray(path[-1], dtype=float)
-        return None
 
     def _other_approach(
         self, q_pre: np.ndarray, pose: np.ndarray
@@ -461,11 +489,12 @@ class SlideGraspExpert:
             budget = self._budget_left()
             if budget <= 0.0:
                 return self._fail("planning budget used up before re-aiming the grasp")
-            ok, info = self._reaim(actual, budget, self.result.extra.get("grasp_config"))
+            ok, info = self._reaim(actual, budget, self.grasp_seed)
             if info.get("timeout"):
                 return self._fail("planning budget used up while re-aiming the grasp")
+        what = "slid" if self.report.planned else "lifted off"  # no plan: it lay there
         self.report.events.append(
-            f"slid: overhang {ov.u:.3f} m, error {self.report.slide_error_m:.3f} m "
+            f"{what}: overhang {ov.u:.3f} m, error {self.report.slide_error_m:.3f} m "
             f"{self.report.slide_error_rad:.3f} rad, grasp {'ok' if ok else info.get('reason')}"
         )
         if ok:

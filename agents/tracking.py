@@ -93,5 +93,21 @@ class ContactTracker:
         error = setpoint - np.asarray(obs["fingertip_pose"][:2], dtype=float)
         limit = p.max_correction
         self.correction = np.clip(self.correction + p.tip_gain * error, -limit, limit)
-        twist = np.r_[self.correction + self.object_offset, 0.0, 0.0, 0.0, 0.0]
-        return jac.T @ np.linalg.solve(jac @ jac.T + 1e-4 * np.eye(6), twist)
+        return _xy_step(jac, self.correction + self.object_offset)
+
+    def adopt(self, q_cmd: np.ndarray, obs: dict[str, np.ndarray]) -> np.ndarray:
+        """Take over a fingertip already pressed: keep the correction a tracker would have
+        built up (the commanded fingertip's xy minus the measured one, clipped) and return
+        the arm without it, whose fingertip is the measured one (where a plan starts)."""
+        t, jac = self.chain.jacobian(q_cmd)
+        error = t[:2, 3] - np.asarray(obs["fingertip_pose"][:2], dtype=float)
+        limit = self.params.max_correction
+        self.correction = np.clip(error, -limit, limit)
+        self.object_offset = np.zeros(2)
+        return np.asarray(q_cmd, dtype=float) - _xy_step(jac, self.correction)
+
+
+def _xy_step(jac: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    """Joint step (damped least squares) that moves the frame by ``xy`` (m), turning nothing."""
+    twist = np.r_[xy, 0.0, 0.0, 0.0, 0.0]
+    return jac.T @ np.linalg.solve(jac @ jac.T + 1e-4 * np.eye(6), twist)

@@ -71,25 +71,98 @@ def _first(infos: list, phases: list, phase: str, test=lambda i: True) -> int:
     return next(t + 1 for t, (i, p) in pairs if p == phase and test(i))
 
 
-def test_from_a_fingertip_pressed_on_the_plate(episode):
+SLID_ON = "took over with the fingertip on the plate: slid on"
+
+
+def _mid_slide(infos: list, phases: list, which: str) -> int:
+    """Steps replayed to a state mid-slide (the fingertip pressed, the plate not graspable):
+    ``"early"`` 8 steps into the slide, ``"over"`` the first with the plate part over the
+    edge."""
+    if which == "early":
+        k = _first(infos, phases, "slide") + 8
+    else:
+        k = _first(infos, phases, "slide", lambda i: i["overhang_m"] > 0 and not i["graspable"])
+    assert phases[k - 1] == phases[k] == "slide" and not infos[k - 1]["graspable"]
+    return k
+
+
+def test_from_a_fingertip_still_pressing_down_it_raises(episode):
+    """Just touched, the fingertip is still above the contact band (by more than the
+    planner's start tolerance): no slide starts there, it rises and plans as before."""
     actions, infos, phases = episode
-    k = _first(infos, phases, "press", lambda i: i["touching_robot"]) + 5  # pressed in
+    k = _first(infos, phases, "press", lambda i: i["touching_robot"]) + 5
     info, events, failure = _take_over(GRASP, actions, k)
     assert failure is None and info["is_success"]
-    assert events[0] == "took over with the fingertip on the plate: raised it"
+    assert events[0].startswith("no slide on from here (") and "fingertip" in events[0]
+    assert events[1] == "took over with the fingertip on the plate: raised it"
 
 
 @pytest.mark.parametrize("env_id", ["SlideGym/TopSlide-v0", GRASP])
-def test_from_a_plate_part_over_the_edge_not_yet_graspable(episode, env_id):
+@pytest.mark.parametrize("which", ["early", "over"])
+def test_mid_slide_it_slides_on(episode, env_id, which):
     actions, infos, phases = episode
-    k = _first(infos, phases, "slide", lambda i: i["overhang_m"] > 0 and not i["graspable"])
-    info, _, failure = _take_over(env_id, actions, k)
+    info, events, failure = _take_over(env_id, actions, _mid_slide(infos, phases, which))
+    assert failure is None and info["is_success"], events
+    assert events[0] == SLID_ON
+    assert not any("raised" in e for e in events)
+
+
+def _first_actions(obs: dict, n: int = 40) -> tuple[np.ndarray, list[str]]:
+    """A fresh expert's first ``n`` actions for the same observation (no env: its plan and
+    open-loop targets only), and its events."""
+    agent = PlannerAgent("regions", 60.0, seed=SEED)
+    try:
+        acts = [agent.predict(obs, episode_start=np.array([t == 0]))[0] for t in range(n)]
+        return np.stack(acts), list(agent.expert(0).report.events)
+    finally:
+        agent.close()
+
+
+def _state(actions: list, k: int) -> dict:
+    """The grasp env's observation after ``k`` of the expert's actions."""
+    env = gym.make(GRASP)
+    try:
+        obs, _ = env.reset(seed=SEED)
+        for action in actions[:k]:
+            obs, *_ = env.step(action)
+        return obs
+    finally:
+        env.close()
+
+
+def test_slide_on_is_deterministic(episode):
+    actions, infos, phases = episode
+    obs = _state(actions, _mid_slide(infos, phases, "over"))
+    (a, events), (b, _) = _first_actions(obs), _first_actions(obs)
+    assert events == [SLID_ON]
+    np.testing.assert_array_equal(a, b)
+
+
+def test_pressed_off_the_manifold_it_raises(episode):
+    """An arm whose wrist is tilted away from the sliding constraints cannot start a slide:
+    the expert raises the fingertip as before."""
+    actions, infos, phases = episode
+    obs = _state(actions, _mid_slide(infos, phases, "over"))
+    obs["arm_qpos"] = obs["arm_qpos"] + np.array([0, 0, 0, 0, 0, 0.4, 0], dtype=np.float32)
+    _, events = _first_actions(obs, 1)
+    assert events[0].startswith("no slide on from here (")
+    assert "start configuration" in events[0]
+    assert events[-1] == "took over with the fingertip on the plate: raised it"
+
+
+def test_pressed_on_a_graspable_plate_it_lifts_off_and_grasps(episode):
+    actions, infos, phases = episode
+    k = _first(infos, phases, "slide", lambda i: i["graspable"]) + 4
+    info, events, failure = _take_over(GRASP, actions, k)
     assert failure is None and info["is_success"]
+    assert events[0] == "took over with the fingertip on the plate: lifted it off"
+    assert events[1].startswith("lifted off: overhang")  # as it lay, no new slide
 
 
 def test_from_a_graspable_plate_it_grasps_at_once(episode):
     actions, infos, phases = episode
-    k = _first(infos, phases, "lift_off", lambda i: i["graspable"] and not i["touching_robot"])
+    k = _first(infos, phases, "transfer") - 1  # lifted off, the fingertip up
+    assert phases[k - 1] == "lift_off" and infos[k - 1]["graspable"]
     info, events, failure = _take_over(GRASP, actions, k)
     assert failure is None and info["is_success"]
     assert "took over with the plate graspable: grasping it" in events

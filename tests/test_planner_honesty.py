@@ -130,7 +130,11 @@ def solved(solve_top_slide):
 
 @pytest.mark.parametrize(("obj", "table", "pose", "seed", "kind"), CASES)
 def test_solution_is_honest(solved, obj, table, pose, seed, kind):
-    res = solved[(obj, table)]
+    check_honest(solved[(obj, table)], obj, table, pose, kind)
+
+
+def check_honest(res, obj: str, table: str, pose, kind: str) -> None:
+    """Every rule the answer claims, re-checked in a fresh PyBullet client."""
     assert res.solved, res.reason
     assert res.extra["planner"] == kind
     beta0, dbeta, (dz_lo, dz_hi) = PARAMS.beta0, PARAMS.dbeta, PARAMS.dz
@@ -224,3 +228,57 @@ def test_bad_budget_raises(budget):
             planner.solve(budget)
     finally:
         planner.close()
+
+
+def _mid_slide(solved) -> tuple[np.ndarray, np.ndarray]:
+    """A configuration halfway along case 0's path and where Eq. 2 has the plate then."""
+    obj, table, pose, _, _ = CASES[0]
+    res = solved[(obj, table)]
+    q_mid = res.path[len(res.path) // 2]
+    rp = Replay(table)
+    try:
+        gammas = []
+        for q in (res.start_config, q_mid):
+            rp.set(q)
+            gammas.append(planar(*rp.frame("fingertip_contact")))
+    finally:
+        rp.close()
+    return q_mid, eq2(gammas[0], gammas[1], np.asarray(pose, dtype=float))
+
+
+def test_fixed_start_is_honest(solved):
+    """A plan from a pressed arm mid-slide starts at that configuration and passes every
+    check, with the plate where the first half of the slide left it."""
+    obj, table, _, _, _ = CASES[0]
+    q_mid, pose_mid = _mid_slide(solved)
+    problem = TopSlideProblem(obj, table, pose_mid, PARAMS, allow_overhang=True)
+    with TopSlidePlanner(problem, "regions", seed=9, start_config=q_mid) as planner:
+        res = planner.solve(30.0)
+    check_honest(res, obj, table, pose_mid, "regions")
+    np.testing.assert_allclose(res.start_config, q_mid, atol=1e-6)
+    assert res.extra["fixed_start"] and res.extra["region_draws"]["start"] == [0, 0]
+
+
+def test_fixed_start_off_the_manifold_is_infeasible(solved):
+    obj, table, _, _, _ = CASES[0]
+    q_mid, pose_mid = _mid_slide(solved)
+    q_off = q_mid + np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.4, 0.0])  # the wrist tilts the tip
+    problem = TopSlideProblem(obj, table, pose_mid, PARAMS, allow_overhang=True)
+    with TopSlidePlanner(problem, "regions", seed=9, start_config=q_off) as planner:
+        res = planner.solve(5.0)
+    assert res.status is PlanStatus.INFEASIBLE and res.path is None
+    assert "start configuration" in res.reason
+
+
+@pytest.mark.parametrize(
+    ("kind", "q", "match"),
+    [
+        ("cbirrt", np.zeros(7), "regions planner"),
+        ("regions", np.zeros(6), "7 finite"),
+        ("regions", np.full(7, np.nan), "7 finite"),
+    ],
+)
+def test_bad_fixed_start_raises(kind, q, match):
+    problem = TopSlideProblem("square", "square", (0.6, 0.0, 0.0))
+    with pytest.raises(ValueError, match=match):
+        TopSlidePlanner(problem, kind, seed=0, start_config=q)

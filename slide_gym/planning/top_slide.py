@@ -6,6 +6,11 @@ turns its answer into a :class:`PlanResult` with a densified path and everything
 execute it. Executors re-aim the grasp, check routes and plan free-space routes through its
 public methods.
 
+With ``start_config`` the ``regions`` search starts from that one configuration (an arm
+already pressing the plate, for an executor that takes over mid-slide): the start forest is
+that single root, projected onto the manifold first, and goal roots are drawn and pair-validated
+against it as usual.
+
 Same seed, same plan, on any machine: every decision is bounded by a count (root draws,
 search iterations with ``SlideParams.max_iterations``, shortcut attempts, the fallback
 transfer planner's iterations); the time budget only decides when to give up (status
@@ -22,7 +27,9 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+import shapely
 
+from slide_gym.geometry import transform_polygon
 from slide_gym.planning.collision import CollisionChecker
 from slide_gym.planning.constraints import ContactBand, SlideConstraints
 from slide_gym.planning.pair import PairValidator
@@ -48,6 +55,12 @@ from slide_gym.planning.search import (
 from slide_gym.planning.smoothing import shortcut_path
 from slide_gym.robot.kinematics import fingertip_chain
 from slide_gym.robot.model import ARM_LOWER, ARM_UPPER
+
+START_TIP_TOLERANCE = 0.005
+"""m: a fixed start configuration whose projection onto the manifold moves the fingertip
+farther than this is rejected (it was not pressing the plate as the constraints want)."""
+START_JOINT_TOLERANCE = 0.1
+"""rad: ... or changes a joint by more than this."""
 
 
 class TopSlidePlanner(Planner):
@@ -75,6 +88,12 @@ class TopSlidePlanner(Planner):
         problem: the scene and parameters.
         planner: one of ``PLANNERS``.
         seed: seed (anything ``numpy.random.default_rng`` takes) or a Generator.
+        start_config: (7,) fixed start (``"regions"`` only): the arm pressing the plate at
+            its start pose. It is projected onto the manifold (``project``); a projection
+            that fails, moves it more than :data:`START_TIP_TOLERANCE` /
+            :data:`START_JOINT_TOLERANCE`, collides or leaves the contact off the plate makes
+            ``solve`` answer ``INFEASIBLE`` with the reason. The result's ``start_config`` is
+            the projected configuration.
     """
 
     def __init__(
@@ -82,9 +101,18 @@ class TopSlidePlanner(Planner):
         problem: TopSlideProblem,
         planner: str = "regions",
         seed: int | Sequence[int] | np.random.Generator | None = None,
+        start_config: Any = None,
     ):
         if planner not in PLANNERS:
             raise ValueError(f"planner must be one of {', '.join(PLANNERS)}, got {planner!r}")
+        if start_config is not None:
+            if planner != "regions":
+                raise ValueError(f"start_config needs the regions planner, not {planner!r}")
+            start_config = np.asarray(start_config, dtype=float)
+            if start_config.shape != (7,) or not np.isfinite(start_config).all():
+                raise ValueError(
+                    f"start_config must be 7 finite joint angles, got {start_config.tolist()}"
+                )
         self.problem = problem
         self.name = planner
         self.seed = seed if not isinstance(seed, np.random.Generator) else None
@@ -129,6 +157,34 @@ class TopSlidePlanner(Planner):
         )
         self._pair_cache: dict[bytes, tuple[bool, Any]] = {}
         self.max_root_draws = 300
+        self.start_config: np.ndarray | None = None
+        self._bad_start: str | None = None
+        if start_config is not None:
+            self._fix_start(start_config)
+
+    def _fix_start(self, q: np.ndarray) -> None:
+        """Project and check a fixed start configuration (see the class docstring)."""
+        q_p = self.project(q)
+        if q_p is None:
+            self._bad_start = "the start configuration cannot be projected onto the manifold"
+            return
+        tip, joint = self.tip_distance(q, q_p), float(np.abs(q_p - q).max())
+        if tip > START_TIP_TOLERANCE or joint > START_JOINT_TOLERANCE:
+            self._bad_start = (
+                f"projecting the start configuration moves the fingertip {tip:.4f} m and a "
+                f"joint {joint:.3f} rad (at most {START_TIP_TOLERANCE} m and "
+                f"{START_JOINT_TOLERANCE} rad)"
+            )
+        elif self.collides(q_p):
+            self._bad_start = "the (projected) start configuration collides"
+        else:
+            xy = self.chain.forward(q_p)[:2, 3]
+            plate = transform_polygon(self.problem.object.polygon, *self.problem.start_pose)
+            if not shapely.contains_xy(plate, xy[0], xy[1]):
+                self._bad_start = "the start configuration's contact is not on the plate"
+            else:
+                self.start_config = q_p
+                self.start_region.last = q_p  # plate-first goal roots aim from it
 
     # ------------------------------------------------------------ callables
     def pair_valid(self, q_s: np.ndarray, q_g: np.ndarray) -> tuple[bool, Any]:
@@ -296,6 +352,9 @@ class TopSlidePlanner(Planner):
         for k, (side, region) in enumerate(regions):
             if k == 1 and self.name == "cbirrt2":
                 break
+            if k == 0 and self.start_config is not None:
+                roots[0].append(self.start_config)
+                continue
             q = self._draw(region, deadline, stats)
             if isinstance(q, str):
                 return [], [], f"{q}:{side}"
@@ -315,7 +374,8 @@ class TopSlidePlanner(Planner):
         starts, goals, why = self._initial_roots(search_deadline, stats)
         if why is not None:
             return self._no_roots(why)
-        fns = self.functions(start=self.name == "regions", goal=self.name not in PAIR_PLANNERS)
+        sample_starts = self.name == "regions" and self.start_config is None
+        fns = self.functions(start=sample_starts, goal=self.name not in PAIR_PLANNERS)
         failures = restarts = 0
         while True:
             params = self._period_params(stats)
@@ -347,6 +407,8 @@ class TopSlidePlanner(Planner):
 
     def _infeasible(self) -> PlanResult | None:
         """An ``INFEASIBLE`` result for scenes no planner can solve, else None."""
+        if self._bad_start is not None:
+            return PlanResult(PlanStatus.INFEASIBLE, self._bad_start, extra=self._extra())
         if self.problem.goal_band.is_empty:
             reason = "no stretch of the table edge allows a side grasp within the arm's reach"
             return PlanResult(PlanStatus.INFEASIBLE, reason, extra=self._extra())
@@ -435,6 +497,7 @@ class TopSlidePlanner(Planner):
         return {
             "planner": self.name,
             "seed": self.seed,
+            "fixed_start": self.start_config is not None or self._bad_start is not None,
             **prob.describe(),
             "parameters": params,
             "validator_counts": dict(self.validator.counts),

@@ -111,9 +111,7 @@ def _open_agent(
 ) -> tuple[str | None, Any, dict[str, Any]]:
     """``(planner name or None, policy with predict or None, its card)``: the card holds the
     ``env_id`` and ``env_kwargs`` it was trained with (``{}`` for planners and ``random``)."""
-    if action_horizon is not None and not (
-        isinstance(agent, (str, Path)) and Path(agent).is_dir()
-    ):
+    if action_horizon is not None and not (isinstance(agent, (str, Path)) and Path(agent).is_dir()):
         raise ValueError(
             "action_horizon applies to a diffusion policy folder (from train-dp) only, "
             f"got the agent {str(agent)!r}"

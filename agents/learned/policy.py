@@ -90,8 +90,10 @@ class DiffusionPolicy:
         most = self.config.pred_horizon - self.config.obs_horizon + 1
         if action_horizon is None:
             action_horizon = self.config.action_horizon
-        if isinstance(action_horizon, bool) or not isinstance(action_horizon, int) or not (
-            1 <= action_horizon <= most
+        if (
+            isinstance(action_horizon, bool)
+            or not isinstance(action_horizon, int)
+            or not (1 <= action_horizon <= most)
         ):
             raise ValueError(
                 f"action_horizon must be a whole number in 1..{most} (pred_horizon - "

@@ -4,7 +4,8 @@ For each seed, the expert plays one episode of the slide env (square on the squa
 then, at every step ``t`` that is a multiple of ``--every`` with the slide phase on both
 sides of it, the episode is replayed to ``t`` and a fresh expert (the same seed) finishes it.
 Each takeover is counted by its first event (slid on, lifted off a graspable plate, raised
-the fingertip as the fallback, other) and whether the episode then succeeded.
+the fingertip as the fallback, other) and whether the episode then succeeded; each line also
+prints how far the takeover's plan moves the plate (its predicted pose from where it lay).
 
     OMP_NUM_THREADS=1 python benchmarks/slide_on.py --seeds 3-7 --control-mode ee_delta
 """
@@ -63,13 +64,16 @@ def measure(seeds: range, control_mode: str, every: int) -> Counter:
             for action in actions[:k]:
                 obs, *_ = env.step(action)
             fresh = PlannerAgent("regions", BUDGET, seed=seed, control_mode=control_mode)
+            at = np.asarray(obs["object_pose"][:2], dtype=float)
             _, _, last = _play(env, fresh, obs)
             report = fresh.expert(0).report
+            goal = report.object_predicted_pose
+            slid = float(np.linalg.norm(np.asarray(goal[:2]) - at)) if goal else float("nan")
             fresh.close()
             kind, ok = _kind(report.events), bool(last["is_success"])
             counts[(kind, ok)] += 1
             why = next((e for e in report.events if e.startswith("no ")), "")
-            print(f"  step {k}: {kind}, {'success' if ok else 'failed'} {why}")
+            print(f"  step {k}: {kind}, {'success' if ok else 'failed'}, slide {slid:.3f} m {why}")
         env.close()
     return counts
 

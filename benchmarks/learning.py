@@ -53,7 +53,8 @@ class Row:
     dataset: str | None = None  # the Minari id
     collect: dict[str, Any] = field(default_factory=dict)  # CollectConfig fields, episodes
     train: list[str] = field(default_factory=list)  # extra train-dp / dagger arguments
-    base: str | None = None  # dagger: the row whose policy it starts from
+    base: str | None = None  # dagger: the row whose policy it starts from; dp: whose it tests
+    action_horizon: int | None = None  # actions executed per chunk (None: the policy's)
 
 
 SQUARE_SLIDE = {"episodes": 200, "only_success": True}
@@ -210,6 +211,47 @@ ROWS = {
             ["--rounds", "1", "--episodes", "16", "--workers", "2"],
             base="dp-ee-square-slide",
         ),
+        Row(
+            "dp-ee-square-slide-10k",
+            "dp",
+            SLIDE,
+            {**SQUARE, **EE},
+            "slide-gym/square-slide-ee-v1",
+            SQUARE_SLIDE,
+            ["--iterations", "10000"],
+        ),
+        Row(
+            "dp-ee-square-slide-10k-h4",
+            "dp",
+            SLIDE,
+            {**SQUARE, **EE},
+            "slide-gym/square-slide-ee-v1",
+            SQUARE_SLIDE,
+            ["--iterations", "10000"],
+            base="dp-ee-square-slide-10k",
+            action_horizon=4,
+        ),
+        Row(
+            "dp-ee-square-slide-10k-h2",
+            "dp",
+            SLIDE,
+            {**SQUARE, **EE},
+            "slide-gym/square-slide-ee-v1",
+            SQUARE_SLIDE,
+            ["--iterations", "10000"],
+            base="dp-ee-square-slide-10k",
+            action_horizon=2,
+        ),
+        Row(
+            "dp-dagger2-ee-square-slide",
+            "dp-dagger",
+            SLIDE,
+            {**SQUARE, **EE},
+            "slide-gym/square-slide-ee-dagger-v2",
+            {},
+            ["--rounds", "1", "--episodes", "20", "--workers", "1"],
+            base="dp-ee-square-slide-10k",
+        ),
         Row("expert-ee-square-grasp", "expert", GRASP, {**SQUARE, **EE}),
         Row(
             "bc-ee-square-grasp",
@@ -257,6 +299,8 @@ def command(row: Row, models: Path) -> str:
     if "control_mode" in row.scene:
         scene += f" --control-mode {row.scene['control_mode']}"
     test = f"--episodes {EPISODES} --seed {TEST_SEED}"
+    if row.action_horizon is not None:
+        test += f" --action-horizon {row.action_horizon}"
     if row.method in ("random", "expert"):
         agent = "regions" if row.method == "expert" else "random"
         return f"slide-gym evaluate {agent} --env {row.env_id} {scene} {test}"
@@ -276,6 +320,8 @@ def command(row: Row, models: Path) -> str:
             f"--out {out} --dataset-id {row.dataset}"
         )
         return f"{train}; slide-gym evaluate {out}/round-1/policy --env {row.env_id} {test}"
+    if row.base is not None:
+        out = models / row.base
     train = f"slide-gym train-dp {row.dataset} --out {out} {' '.join(row.train)}".rstrip()
     return f"{collect}; {train}; slide-gym evaluate {out} --env {row.env_id} {scene} {test}"
 
@@ -310,7 +356,7 @@ def run(row: Row, models: Path, out: Path) -> dict[str, Any]:
     else:
         if row.method != "dp-dagger":
             _collect(row)
-        path = models / row.name
+        path = models / (row.base if row.method == "dp" and row.base else row.name)
         if row.method == "bc":
             zip_path = path.with_suffix(".zip")
             if not zip_path.exists():
@@ -349,6 +395,7 @@ def run(row: Row, models: Path, out: Path) -> dict[str, Any]:
         seed=TEST_SEED,
         env_kwargs=env_kwargs,
         progress=True,
+        action_horizon=row.action_horizon,
     )
     record = {
         "row": row.name,
@@ -356,6 +403,7 @@ def run(row: Row, models: Path, out: Path) -> dict[str, Any]:
         "env_id": row.env_id,
         "scene": row.scene,
         "dataset": row.dataset,
+        "action_horizon": row.action_horizon,
         "training": training,
         "episodes": result["episodes"],
         "successes": result["successes"],
@@ -372,11 +420,51 @@ def run(row: Row, models: Path, out: Path) -> dict[str, Any]:
     with (out / "rows.jsonl").open("a") as f:
         f.write(json.dumps(record) + "\n")
     if row.method.startswith("dp"):
-        curve = agent / "progress.csv" if row.method != "dp-dagger" else None
+        curve = agent / "progress.csv" if row.method == "dp" and row.base is None else None
         if curve is not None and curve.exists():
             (out / "curves").mkdir(exist_ok=True)
             shutil.copy(curve, out / "curves" / f"{row.name}.csv")
     return record
+
+
+def horizons(
+    row: Row, models: Path, out: Path, choices: list[int], episodes: int
+) -> list[dict[str, Any]]:
+    """The row's trained policy on ``episodes`` validation episodes (seeds from
+    :data:`~slide_gym.splits.VALIDATION_SEED`, never the test seeds) at each action horizon
+    in ``choices``: how the horizon of a row such as ``...-h4`` was chosen. Appended to
+    ``OUT/horizons.jsonl``."""
+    from agents.evaluate import evaluate
+    from slide_gym.splits import VALIDATION_SEED
+    from slide_gym.version import code_version
+
+    path = models / (row.base or row.name)
+    results = []
+    for k in choices:
+        r = evaluate(
+            str(path),
+            row.env_id,
+            episodes=episodes,
+            seed=VALIDATION_SEED,
+            env_kwargs=dict(row.scene),
+            action_horizon=k,
+        )
+        record = {
+            "policy": path.name,
+            "action_horizon": k,
+            "episodes": r["episodes"],
+            "successes": r["successes"],
+            "ci95": r["ci95"],
+            "mean_length": r["mean_length"],
+            "seeds": [VALIDATION_SEED, VALIDATION_SEED + episodes - 1],
+            "code_version": code_version(),
+        }
+        out.mkdir(parents=True, exist_ok=True)
+        with (out / "horizons.jsonl").open("a") as f:
+            f.write(json.dumps(record) + "\n")
+        print(json.dumps(record))
+        results.append(record)
+    return results
 
 
 def _unfinished(path: Path) -> bool:
@@ -516,6 +604,12 @@ def main() -> int:
     p.add_argument("rows", nargs="+", choices=sorted(ROWS), metavar="ROW")
     p.add_argument("--models", type=Path, default=Path("models"))
     p.add_argument("--out", type=Path, default=OUT)
+    p = sub.add_parser("horizon", help="a row's policy on validation seeds at action horizons")
+    p.add_argument("row", choices=sorted(ROWS), metavar="ROW")
+    p.add_argument("--horizons", type=int, nargs="+", default=[8, 4, 2], metavar="K")
+    p.add_argument("--episodes", type=int, default=20, metavar="N")
+    p.add_argument("--models", type=Path, default=Path("models"))
+    p.add_argument("--out", type=Path, default=OUT)
     p = sub.add_parser("fit", help="a policy's action error on its training windows")
     p.add_argument("policies", nargs="+", type=Path, metavar="DIR")
     p.add_argument("--dataset", required=True, metavar="ID")
@@ -525,6 +619,8 @@ def main() -> int:
     if args.cmd == "list":
         for row in ROWS.values():
             print(f"{row.name}: {command(row, Path('models'))}")
+    elif args.cmd == "horizon":
+        horizons(ROWS[args.row], args.models, args.out, args.horizons, args.episodes)
     elif args.cmd == "fit":
         for path in args.policies:
             print(json.dumps(fit(path, args.dataset)))

@@ -205,7 +205,7 @@ def plate_admissible(
 ) -> bool:
     """Whether the task admits ``obj``: some pose overhangs a straight table edge by
     ``u_star`` with the centroid ``centroid_margin`` inside (the planner's feasibility test,
-    :meth:`~slide_gym.geometry.ObjectShape.can_overhang`; pure geometry)."""
+    :meth:`~slide_gym.geometry.shapes.ObjectShape.can_overhang`; pure geometry)."""
     return obj.can_overhang(u_star, centroid_margin)
 
 

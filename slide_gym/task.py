@@ -6,6 +6,7 @@ The task knows nothing about actions; the environment joins it with the robot.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -187,12 +188,71 @@ RANDOM = "random"
 """The object or table name that draws a catalog shape per episode."""
 
 
+ADMISSIBLE_CENTROID_MARGIN = 0.005
+"""How far (m) inside the table edge an admissible plate's centroid can stay while it
+overhangs u*: a plate that reaches u* only with its centroid within a few millimetres of the
+edge falls off with a slide error of that size (the expert's are 6-9 mm, median). The expert
+plans with at least this margin; its planner answers ``infeasible`` below it."""
+MAX_REDRAWS = 100
+"""Draws of a procedural seed tried before :func:`fit_procedural_object` gives up (a scale
+so small that no plate is admissible)."""
+
+
+def plate_admissible(
+    obj: ObjectShape,
+    u_star: float = TaskParams.u_star,
+    centroid_margin: float = ADMISSIBLE_CENTROID_MARGIN,
+) -> bool:
+    """Whether the task admits ``obj``: some pose overhangs a straight table edge by
+    ``u_star`` with the centroid ``centroid_margin`` inside (the planner's feasibility test,
+    :meth:`~slide_gym.geometry.shapes.ObjectShape.can_overhang`; pure geometry)."""
+    return obj.can_overhang(u_star, centroid_margin)
+
+
+@dataclass(frozen=True)
+class ProceduralPlate:
+    """The plate a procedural seed gives on a table: ``shape`` (named ``procedural-<seed>``)
+    and ``redraws``, how many of the seed's draws were not admissible before it (its draw
+    number, :func:`slide_gym.geometry.procedural.procedural_object`)."""
+
+    shape: ObjectShape
+    redraws: int
+
+
+def draw_procedural_plate(
+    seed: int, table: TableShape, scale: float = 1.0, margin: float = TaskParams.start_margin
+) -> ProceduralPlate:
+    """The first admissible draw of procedural seed ``seed``, scaled by ``scale`` and shrunk
+    by 20 % steps until it can lie on ``table`` within the arm's reach (the same seed, table
+    and scale: the same plate). A draw is admissible if :func:`plate_admissible` holds after
+    scaling and fitting; ValueError if none of :data:`MAX_REDRAWS` draws is."""
+    if isinstance(scale, bool) or not isinstance(scale, int | float) or not 0 < scale < math.inf:
+        raise ValueError(f"scale must be a positive number, got {scale!r}")
+    for redraw in range(MAX_REDRAWS):
+        drawn = procedural_object(seed, redraw)  # ValueError for a bad seed
+        try:
+            plate = _fit_plate(drawn.scaled(scale), seed, table, margin)
+        except ValueError:
+            continue  # too small at this scale, or does not fit the table
+        if plate_admissible(plate):
+            return ProceduralPlate(plate, redraw)
+    raise ValueError(
+        f"procedural seed {seed}: none of {MAX_REDRAWS} draws at scale {scale:g} fits table "
+        f"{table.name!r} and can overhang u* = {TaskParams.u_star:g} m with its centroid "
+        f"{ADMISSIBLE_CENTROID_MARGIN:g} m inside the edge (is the scale too small?)"
+    )
+
+
 def fit_procedural_object(
     seed: int, table: TableShape, scale: float = 1.0, margin: float = TaskParams.start_margin
 ) -> ObjectShape:
-    """Procedural plate ``seed`` scaled by ``scale``, shrunk by 20 % steps until it can lie on
-    ``table`` within the arm's reach (the same seed on the same table: the same plate)."""
-    plate = procedural_object(seed).scaled(scale)
+    """The plate of procedural seed ``seed`` on ``table``: :func:`draw_procedural_plate`'s
+    shape (admissible, fitted to the table, always the same for the same arguments)."""
+    return draw_procedural_plate(seed, table, scale, margin).shape
+
+
+def _fit_plate(plate: ObjectShape, seed: int, table: TableShape, margin: float) -> ObjectShape:
+    """``plate`` shrunk by 20 % steps until a start pose on ``table`` exists."""
     rng = np.random.default_rng([int(seed), 0xF17])  # only to test that a start pose exists
     for _ in range(10):
         try:
@@ -201,7 +261,7 @@ def fit_procedural_object(
             return plate
         except ValueError:
             plate = plate.scaled(0.8)
-    raise ValueError(f"procedural plate {seed} does not fit on table {table.name!r}")
+    raise ValueError(f"procedural plate {plate.name!r} does not fit on table {table.name!r}")
 
 
 def scene_object(

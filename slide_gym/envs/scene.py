@@ -77,7 +77,8 @@ class SceneChoice:
     def draw(self, rng: np.random.Generator, seed: int | None, margin: float) -> tuple[Any, Any]:
         """The episode's ``(object, table)``: ``"random"`` draws a catalog shape from ``rng``
         (the table first); ``"procedural"`` is the plate of ``seed`` (or of a seed drawn from
-        ``rng``), fitted to the table."""
+        ``rng``), fitted to the table and admissible
+        (:func:`~slide_gym.task.fit_procedural_object`)."""
         table = _pick(self.table, TABLE_NAMES, get_table, rng)
         if self.object == PROCEDURAL:
             plate_seed = seed if seed is not None else int(rng.integers(2**31))

@@ -192,7 +192,8 @@ class TopSlideEnv(gym.Env):
       ``ObjectShape``, ``"random"`` (a catalog object drawn each episode) or ``"procedural"``
       (a generated plate, 4-30 cm across, 0.5-6 mm thick, convex or not, with or without
       holes: the plate of the reset seed, or of a seed drawn from the env's generator;
-      shrunk if needed to fit the table; ``info["object"]`` names it).
+      shrunk if needed to fit the table, and redrawn from the seed if it cannot overhang u*,
+      :func:`slide_gym.task.draw_procedural_plate`; ``info["object"]`` names it).
     - ``table``: likewise with ``slide_gym.TABLE_NAMES``.
     - ``scale``: object scale factor (> 0); ``thickness``: the object's thickness (m, 0.3 mm
       to 5 cm) instead of its own.

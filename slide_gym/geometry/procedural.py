@@ -12,6 +12,19 @@ About a third of the plates get one or two holes (6- to 24-gons) that keep a wal
 8 mm around them. The size across (:func:`diameter`) is drawn log-uniformly from
 :data:`SIZE_RANGE`, the width is at least :data:`MIN_WIDTH` (a fingertip must fit on the
 plate) and the thickness is drawn log-uniformly from :data:`THICKNESS_RANGE`.
+
+Admissible plates. ``object="procedural"`` (:func:`slide_gym.task.fit_procedural_object`)
+only hands out plates the task admits: a plate must be able to overhang a straight table edge
+by the hand's u* (2 cm) with its centroid at least 5 mm inside the edge, so its circumradius
+(farthest outline point from the centroid) must be at least 2.5 cm
+(:func:`slide_gym.task.plate_admissible`). Draw 0 of a seed that falls short (9 % of seeds,
+all 4-5 cm across) is replaced by draw 1, 2, ... of the same seed (:func:`procedural_object`
+with ``redraw``, rarely more than one), so seed ``s`` is always the same admissible plate,
+still named ``procedural-<s>``; :func:`slide_gym.task.draw_procedural_plate` says how many
+draws it took. Admitted plates are 4-30 cm across as before, but those under 5 cm only when
+they are elongated enough (a disc needs 5 cm). With a ``scale`` the test applies to the
+scaled plate, so smaller scales redraw more often. :func:`procedural_object` itself draws any
+plate; user plates (catalog, JSON, shapes) are never redrawn.
 """
 
 from __future__ import annotations
@@ -126,11 +139,19 @@ def _outline(rng: np.random.Generator, size: float) -> shapely.Polygon:
     return shapely.set_precision(shape, 1e-5)
 
 
-def procedural_object(seed: int) -> ObjectShape:
-    """The plate of ``seed`` (a non-negative integer), named ``procedural-<seed>``."""
-    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
-        raise ValueError(f"a procedural plate's seed must be an integer >= 0, got {seed!r}")
-    rng = np.random.default_rng([int(seed), _STREAM])
+def _check_count(value: object, what: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 0:
+        raise ValueError(f"a procedural plate's {what} must be an integer >= 0, got {value!r}")
+    return int(value)
+
+
+def procedural_object(seed: int, redraw: int = 0) -> ObjectShape:
+    """Draw ``redraw`` of the plate of ``seed`` (non-negative integers), named
+    ``procedural-<seed>``. Draw 0 is the seed's first plate; draw ``k`` comes from a generator
+    seeded with ``[seed, k]`` (and this module's stream), the redraws that
+    :func:`slide_gym.task.fit_procedural_object` makes when a plate is not admissible."""
+    seed, redraw = _check_count(seed, "seed"), _check_count(redraw, "redraw")
+    rng = np.random.default_rng([seed, _STREAM, redraw] if redraw else [seed, _STREAM])
     size = _log_uniform(rng, *SIZE_RANGE)
     for _ in range(100):  # redraw outlines a fingertip cannot be pressed on
         shape = _outline(rng, size)
@@ -141,7 +162,7 @@ def procedural_object(seed: int) -> ObjectShape:
     if rng.random() < 1.0 / 3.0:
         shape = _with_holes(rng, shape)
     thickness = _log_uniform(rng, *THICKNESS_RANGE)
-    return ObjectShape(f"procedural-{int(seed)}", shapely.Polygon(shape), thickness)
+    return ObjectShape(f"procedural-{seed}", shapely.Polygon(shape), thickness)
 
 
 def _principal_angle(poly: shapely.Polygon) -> float:

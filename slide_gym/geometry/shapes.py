@@ -203,6 +203,13 @@ class ObjectShape:
         ext = np.asarray(self.polygon.exterior.coords)
         return float(np.linalg.norm(ext, axis=1).max())
 
+    def can_overhang(self, u_star: float, centroid_margin: float = 0.0) -> bool:
+        """Whether some pose overhangs a straight table edge by ``u_star`` (m) with the
+        centroid at least ``centroid_margin`` (m) inside it: the farthest outline point faces
+        the edge, so the test is ``circumradius - centroid_margin >= u_star``. Pure geometry
+        (no table, no reach); the planner answers ``infeasible`` when it fails."""
+        return self.circumradius - float(centroid_margin) >= float(u_star)
+
     @property
     def size(self) -> float:
         """Largest distance between two points of the outline (m): the plate's largest

@@ -413,7 +413,7 @@ class TopSlidePlanner(Planner):
             reason = "no stretch of the table edge allows a side grasp within the arm's reach"
             return PlanResult(PlanStatus.INFEASIBLE, reason, extra=self._extra())
         reach, p = self.problem.object.circumradius, self.problem.params
-        if reach - p.centroid_margin < p.u_star:
+        if not self.problem.object.can_overhang(p.u_star, p.centroid_margin):
             reason = (
                 f"the plate cannot overhang u* = {p.u_star:.3g} m with its centroid "
                 f"{p.centroid_margin:.3g} m inside the edge: no point of it lies farther than "

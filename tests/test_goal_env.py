@@ -58,6 +58,25 @@ def test_goals_are_graspable_and_reproducible(env: TopSlideGoalEnv) -> None:
         assert REACH_MIN <= math.hypot(x, y) <= REACH_MAX
 
 
+def test_every_admitted_generated_plate_gets_a_graspable_goal() -> None:
+    from slide_gym.envs.goal import GOAL_CENTROID_MARGIN, GOAL_EXTRA_OVERHANG
+    from slide_gym.geometry import ObjectShape
+
+    env = TopSlideGoalEnv(object="procedural")
+    u_star, small = TaskParams().u_star, 0
+    try:
+        for seed in range(20):
+            _, info = env.reset(seed=seed)
+            obj: ObjectShape = env.task.object
+            x, y, yaw = info["goal_pose"]
+            over = overhang(transform_polygon(obj.polygon, x, y, yaw), env.task.table.polygon)
+            assert over.graspable(u_star), seed
+            small += obj.circumradius < u_star + GOAL_EXTRA_OVERHANG[1] + GOAL_CENTROID_MARGIN
+    finally:
+        env.close()
+    assert small >= 1  # a plate too small for the uniform draw was among them
+
+
 def test_compute_reward_is_vectorised_and_matches_step(env: TopSlideGoalEnv) -> None:
     obs, _ = env.reset(seed=0)
     obs, reward, _, _, info = env.step(env.action_space.sample())

@@ -18,9 +18,10 @@ from slide_gym.envs.observation import POS_BOUND, box
 from slide_gym.envs.top_slide import TopSlideEnv
 from slide_gym.geometry import ObjectShape, TableShape, overhang, transform_polygon
 from slide_gym.planning.params import SlideParams
+from slide_gym.planning.plate_goals import PlateGoalPoses
 from slide_gym.planning.regions import goal_band
 from slide_gym.robot.model import PINCH_EDGE_CLEARANCE
-from slide_gym.task import REACH_MAX, REACH_MIN, SceneState
+from slide_gym.task import ADMISSIBLE_CENTROID_MARGIN, REACH_MAX, REACH_MIN, SceneState
 
 POS_TOLERANCE = 0.02
 """Largest plate position error (m) that counts as reaching the goal."""
@@ -58,7 +59,13 @@ def sample_goal_pose(
     """A random graspable pose ``(x, y, yaw)``: overhang ``u* + GOAL_EXTRA_OVERHANG`` past an
     edge stretch where a side grasp is within the arm's reach (the planner's goal band), the
     centroid ``GOAL_CENTROID_MARGIN`` inside the table and between ``REACH_MIN`` and
-    ``REACH_MAX`` from the robot base."""
+    ``REACH_MAX`` from the robot base.
+
+    A plate too small for that (its circumradius short of the largest such overhang plus the
+    margin) gets a pose from the planner's size-aware goal poses instead
+    (:class:`~slide_gym.planning.plate_goals.PlateGoalPoses`: its farthest point faces the
+    edge, overhang at least u*, centroid ``ADMISSIBLE_CENTROID_MARGIN`` inside), so every
+    plate the task admits has goals."""
     band = goal_band(
         table.polygon, _BAND_WIDTH, table.height + 0.5 * obj.thickness, PINCH_EDGE_CLEARANCE
     )
@@ -68,6 +75,8 @@ def sample_goal_pose(
     shapely.prepare(inner)
     minx, miny, maxx, maxy = table.polygon.bounds
     lo, hi = (u_star + extra for extra in GOAL_EXTRA_OVERHANG)
+    if obj.circumradius < hi + GOAL_CENTROID_MARGIN:
+        return _small_plate_goal(obj, table, band, rng, u_star, tries)
     for _ in range(tries):
         x, y = rng.uniform(minx, maxx), rng.uniform(miny, maxy)
         yaw = rng.uniform(-math.pi, math.pi)
@@ -79,6 +88,31 @@ def sample_goal_pose(
     raise ValueError(
         f"found no graspable goal pose for object {obj.name!r} on table {table.name!r} in "
         f"{tries} random tries (overhang {lo:.3f}-{hi:.3f} m with the centroid on the table)"
+    )
+
+
+def _small_plate_goal(
+    obj: ObjectShape,
+    table: TableShape,
+    band: shapely.Geometry,
+    rng: np.random.Generator,
+    u_star: float,
+    tries: int,
+) -> np.ndarray:
+    margin = ADMISSIBLE_CENTROID_MARGIN
+    if not obj.can_overhang(u_star, margin):
+        raise ValueError(
+            f"object {obj.name!r} cannot overhang u* = {u_star} m with its centroid {margin} m "
+            f"on the table (its farthest point is {obj.circumradius:.3f} m from its centroid)"
+        )
+    poses = PlateGoalPoses(obj.polygon, table.polygon, band, u_star, margin)
+    for _ in range(tries):
+        pose = poses.sample(rng)
+        if pose is not None and REACH_MIN <= math.hypot(pose[0], pose[1]) <= REACH_MAX:
+            return pose
+    raise ValueError(
+        f"found no graspable goal pose for object {obj.name!r} on table {table.name!r} in "
+        f"{tries} draws of its size-aware goal poses"
     )
 
 

@@ -254,6 +254,19 @@ def test_summarize_execute_rates_medians_and_rows() -> None:
     }
 
 
+def test_summarize_execute_throughput() -> None:
+    rows = [
+        {**_row("L", "square", True, 0.01, 2.0), "sim_time_s": 20.0, "planning_time_s": 0.5},
+        {**_row("L", "round", False, 0.01, 4.0), "sim_time_s": 10.0, "planning_time_s": 2.0},
+    ]
+    s = summarize_execute(rows)
+    assert s["real_time_factor"] == pytest.approx(5.0)  # 30 simulated s in 6 wall s
+    assert s["planning_share_median"] == pytest.approx(0.375)  # of 0.25 and 0.5
+    assert s["demos_per_core_min"] == pytest.approx(10.0)  # 1 lifted in 0.1 core-minutes
+    assert "real-time factor 5.0x" in execute_markdown_table(s)
+    assert summarize_execute(ROWS)["real_time_factor"] is None  # no simulated times
+
+
 def test_summarize_execute_of_nothing() -> None:
     s = summarize_execute([])
     assert s["n"] == 0 and s["success_rate"] is None and s["wall_time_s_p90"] is None

@@ -202,12 +202,30 @@ def summarize_execute(results: Sequence[dict[str, Any]]) -> dict[str, Any]:
         "wall_time_s_median": _median(walls),
         "wall_time_s_p90": float(np.percentile(walls, 90)) if walls else None,
         "sim_time_s_median": _median(sims),
+        **_throughput(results),
         "slide_error_m_median": _median(_present(results, "slide_error_m")),
         "slide_error_rad_median": error_rad,
         "slide_error_deg_median": _scaled(error_rad, 180.0 / math.pi),
         "by_object": _group(results, "object", OBJECT_NAMES),
         "by_table": _group(results, "table", TABLE_NAMES),
         "failures": failure_counts(results),
+    }
+
+
+def _throughput(results: Sequence[dict[str, Any]]) -> dict[str, float | None]:
+    """Ratios that hold across machines better than wall times: the real-time factor
+    (simulated over wall seconds, all episodes together), the median share of an episode's
+    wall time spent planning, and lifted episodes per wall minute of one core (each episode
+    runs on one)."""
+    done = [r for r in results if r.get("wall_time_s") and r.get("sim_time_s") is not None]
+    wall = sum(float(r["wall_time_s"]) for r in done)
+    if not done or wall <= 0.0:
+        return {"real_time_factor": None, "planning_share_median": None, "demos_per_core_min": None}
+    shares = [float(r.get("planning_time_s") or 0.0) / float(r["wall_time_s"]) for r in done]
+    return {
+        "real_time_factor": sum(float(r["sim_time_s"]) for r in done) / wall,
+        "planning_share_median": _median(shares),
+        "demos_per_core_min": sum(bool(r.get("success")) for r in done) / (wall / 60.0),
     }
 
 
@@ -226,7 +244,11 @@ def execute_markdown_table(summary: dict[str, Any]) -> str:
         f"planned {_fmt(_scaled(summary['planned_rate'], 100.0), '.0f', '%')}, "
         f"wall median {_fmt(summary['wall_time_s_median'], '.1f', ' s')} "
         f"(p90 {_fmt(summary['wall_time_s_p90'], '.1f', ' s')}), simulated median "
-        f"{_fmt(summary['sim_time_s_median'], '.1f', ' s')}, slide error median "
+        f"{_fmt(summary['sim_time_s_median'], '.1f', ' s')}, real-time factor "
+        f"{_fmt(summary.get('real_time_factor'), '.1f', 'x')}, planning "
+        f"{_fmt(_scaled(summary.get('planning_share_median'), 100.0), '.0f', '%')} of wall "
+        f"(median), {_fmt(summary.get('demos_per_core_min'), '.1f')} lifted per core-minute, "
+        "slide error median "
         f"{_fmt(_scaled(summary['slide_error_m_median'], 100.0), '.1f', ' cm')} / "
         f"{_fmt(summary['slide_error_deg_median'], '.1f', ' deg')}",
     ]

@@ -193,6 +193,17 @@ ROWS = {
             ["--actions", "deltas", "--scaling", "standard", "--iterations", "10000"],
         ),
         Row(
+            "dp-ee-catalog-slide-h2",
+            "dp",
+            SLIDE,
+            {**CATALOG, **EE},
+            "slide-gym/catalog-slide-ee-v1",
+            {"episodes": 400, "only_success": True},
+            ["--actions", "deltas", "--scaling", "standard", "--iterations", "10000"],
+            base="dp-ee-catalog-slide",
+            action_horizon=2,
+        ),
+        Row(
             "dp-ee-square-slide-nofeat",
             "dp",
             SLIDE,

@@ -76,6 +76,8 @@ the expert takes over rises first: from there every route would start in collisi
 HELD_HEIGHT = 0.01
 """m: a plate whose bottom is this far above the table top, with the hand closed, is in the
 hand when the expert takes over (it lifts and holds)."""
+UNLOAD_MARGIN = 0.005
+"""m: the lift-off's first leg rises this much more than the pressed finger is bent."""
 APPROACH_RAISES = (0.15, 0.25, 0.35)
 """m above the pre-press pose: the approach goes via a pose raised by the first of these whose
 route is free (when the direct move is not), before a planned route is tried."""
@@ -193,7 +195,7 @@ class SlideGraspExpert:
         elif self.phase == "slide":
             self._pull_back_or_lift_off(obs)
         elif self.phase == "pull_back":
-            self._lift_off()
+            self._lift_off(obs)
         elif self.phase == "lift_off":
             self._after_lift_off(obs)
         elif self.phase == "lift":
@@ -449,30 +451,61 @@ class SlideGraspExpert:
         depth = centroid.distance(ring) * (1.0 if inside else -1.0)
         keep = min(self.params.pull_back_margin, self.centroid_margin)
         if depth >= keep:
-            return self._lift_off()
+            return self._lift_off(obs)
         inward = (pose[:2] - edge_point) * (1.0 if inside else -1.0)
         inward /= max(float(np.linalg.norm(inward)), 1e-9)
         shift = np.r_[inward * (keep - depth + 0.005), 0.0]
         line = cartesian_line(self.tip, self.q_slide_end, shift, self.rng)
         assert self.planner is not None
         if line is None or not self.planner.route_free(line, None, mode="sliding"):
-            return self._lift_off()
+            return self._lift_off(obs)
         self.report.events.append(f"centroid {depth:.3f} m inside the edge: pulled back")
         self._push(Segment("pull_back", line, 1.0, self.params.press_speed), self.tip, track=True)
         self.q_slide_end = line[-1]
 
-    def _lift_off(self) -> None:
-        """Raise the fingertip off the plate, still holding its xy (the finger unloads)."""
-        assert self.q_cmd is not None
-        q_end = self.q_slide_end  # the nominal (uncorrected) end of the slide
+    def _lift_off(self, obs: dict[str, np.ndarray]) -> None:
+        """Raise the fingertip off the plate, untracked.
+
+        The pressed finger is bent: the arm's rigid-finger fingertip (the command, the
+        tracker's corrections included) lies centimetres from the real one, below the plate
+        top. Rising straight up, the finger springs back and its tip swings onto the
+        command's xy, dragging a light plate with it (by as much as a small plate's centroid
+        margin). So the first leg rises by the finger's deflection while moving the command's
+        fingertip onto the measured one (:data:`UNLOAD_MARGIN` higher); the rest is straight
+        up.
+        """
+        assert self.q_cmd is not None and self.planner is not None
         h = self.params.lift_off_height  # near a joint limit, less still unloads the finger
-        line = rise(self.tip, q_end, (h, h / 2, h / 4), False, self.rng)
-        if line is None:
-            return self._fail("no IK solution to lift the fingertip off the plate")
-        assert self.planner is not None
+        q_from = np.asarray(self.q_cmd, dtype=float)
+        line = self._unload_line(q_from, obs)
+        if line is not None:
+            left = h - float(self.tip.forward(line[-1])[2, 3] - self.tip.forward(q_from)[2, 3])
+            up = rise(self.tip, line[-1], (left, left / 2, left / 4), False, self.rng)
+            line = None if up is None else np.vstack([line, up[1:]])
+        if line is None:  # no unload leg: straight up from the slide's nominal end
+            line = rise(self.tip, self.q_slide_end, (h, h / 2, h / 4), False, self.rng)
+            if line is None:
+                return self._fail("no IK solution to lift the fingertip off the plate")
+            if not self.planner.route_free(line, None, mode="sliding"):
+                return self._fail("the lift-off move would collide")
+            seg = Segment("lift_off", line, 1.0, self.params.lift_off_speed)
+            return self._push(seg, self.tip, track=True)
         if not self.planner.route_free(line, None, mode="sliding"):
             return self._fail("the lift-off move would collide")
-        self._push(Segment("lift_off", line, 1.0, self.params.lift_off_speed), self.tip, track=True)
+        self._push(Segment("lift_off", line, 1.0, self.params.lift_off_speed), self.tip)
+
+    def _unload_line(self, q_from: np.ndarray, obs: dict[str, np.ndarray]) -> np.ndarray | None:
+        """Waypoints from ``q_from`` that bring the command's fingertip over the measured one
+        as high above it as the finger is bent (plus :data:`UNLOAD_MARGIN`); None if the
+        finger is not bent the usual way or the move leaves the reachable set."""
+        cmd = self.tip.forward(q_from)[:3, 3]
+        real = np.asarray(obs["fingertip_pose"][:3], dtype=float)
+        bend = real - cmd
+        limit = self.params.max_correction + self.params.max_object_correction
+        if bend[2] <= 0.0 or np.linalg.norm(bend[:2]) > limit:
+            return None
+        offset = np.r_[bend[:2], min(bend[2] + UNLOAD_MARGIN, self.params.lift_off_height)]
+        return cartesian_line(self.tip, q_from, offset, self.rng)
 
     def _after_lift_off(self, obs: dict[str, np.ndarray]) -> None:
         """Compare the real slid pose with Eq. 2; re-aim the grasp at it, or replan."""

@@ -43,7 +43,12 @@ import numpy as np
 import shapely
 
 from agents.ee_actions import EEActions
-from agents.params import ExpertParams, plate_slide_params, relaxed_slide_params
+from agents.params import (
+    ExpertParams,
+    plate_grasp_u_star,
+    plate_slide_params,
+    relaxed_slide_params,
+)
 from agents.record import ExpertReport
 from agents.scene import SceneLibrary
 from agents.takeover import lift_off_pressed, slide_on
@@ -134,6 +139,7 @@ class SlideGraspExpert:
         self.table: TableShape | None = None
         self.rng = np.random.default_rng(self.seed)
         self.centroid_margin = slide_params.centroid_margin  # set per plate by _slide_params
+        self.grasp_u_star = params.grasp_u_star  # likewise
         self._steps = 0  # actions returned so far
         self._taken_over = False  # the first observation's state has been read
         self.grasp_seed: np.ndarray | None = None  # the plan's grasp, an IK seed for re-aiming
@@ -148,6 +154,7 @@ class SlideGraspExpert:
                 self.ee.reset(self.q_cmd)
             self.obj = self.library.object_from(obs["object_outline"])
             self.table = self.library.table_from(obs["table_outline"], obs["table_height"][0])
+            self._slide_params()  # this plate's margins and grasp threshold
         if self.ee is not None and self.ee.hold():  # the pose lags the last target: wait
             assert self.ee.last is not None
             self._steps += 1
@@ -221,6 +228,7 @@ class SlideGraspExpert:
         assert self.obj is not None
         strict = plate_slide_params(self.slide_params, self.params, self.obj.circumradius)
         self.centroid_margin = strict.centroid_margin
+        self.grasp_u_star = plate_grasp_u_star(self.params, strict)
         return [("strict", strict), ("relaxed", relaxed_slide_params(strict))]
 
     def _budget_left(self) -> float:
@@ -248,7 +256,7 @@ class SlideGraspExpert:
         pose = self._object_pose(obs)
         placed = transform_polygon(self.obj.polygon, *pose)
         tip = np.asarray(obs["fingertip_pose"][:3], dtype=float)
-        graspable = overhang(placed, self.table.polygon).graspable(p.grasp_u_star)
+        graspable = overhang(placed, self.table.polygon).graspable(self.grasp_u_star)
         if tip[2] - float(obs["table_height"][0]) < LOW_TIP_HEIGHT:
             on_plate = placed.buffer(0.01).contains(shapely.Point(tip[0], tip[1]))
             where = "on the plate" if on_plate else "low over the table"
@@ -518,7 +526,7 @@ class SlideGraspExpert:
         placed = transform_polygon(self.obj.polygon, *actual)
         ov = overhang(placed, self.table.polygon)
         ok, info = False, {"reason": "overhang below u_star or centroid off the table"}
-        if ov.graspable(self.params.grasp_u_star):
+        if ov.graspable(self.grasp_u_star):
             budget = self._budget_left()
             if budget <= 0.0:
                 return self._fail("planning budget used up before re-aiming the grasp")
@@ -547,7 +555,7 @@ class SlideGraspExpert:
         ok, info = self.planner.reaim_grasp(
             pose,
             self.q_cmd,
-            self.params.grasp_u_star,
+            self.grasp_u_star,
             max_iterations=self.params.grasp_iterations,
             time_budget=budget,
             grasp_seed=grasp_seed,

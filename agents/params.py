@@ -37,7 +37,8 @@ EXPERT_SLIDE_PARAMS = SlideParams(
 - the grasp approached from a stand-off 6 cm out, clear of the plate's corners;
 - goal roots from the paper's band C_g (``goal_sampling="band"``), which these margins were
   tuned with: with the plate-first goals, the L on the square table (seed 2, ee_delta
-  control) fell off while grasped. Switching needs the expert's own measurement."""
+  control) fell off while grasped. Plates too small for the full margins draw plate-first
+  goals (:func:`plate_slide_params`)."""
 
 
 _COUNTS = ("max_replans", "strict_plan_iterations", "grasp_iterations", "route_iterations")

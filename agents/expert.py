@@ -82,7 +82,7 @@ HELD_HEIGHT = 0.01
 """m: a plate whose bottom is this far above the table top, with the hand closed, is in the
 hand when the expert takes over (it lifts and holds)."""
 UNLOAD_MARGIN = 0.005
-"""m: the lift-off's first leg rises this much more than the pressed finger is bent."""
+"""m: the lift-off's first leg rises this much more than half the pressed finger's bend."""
 APPROACH_RAISES = (0.15, 0.25, 0.35)
 """m above the pre-press pose: the approach goes via a pose raised by the first of these whose
 route is free (when the direct move is not), before a planned route is tried."""
@@ -478,9 +478,8 @@ class SlideGraspExpert:
         tracker's corrections included) lies centimetres from the real one, below the plate
         top. Rising straight up, the finger springs back and its tip swings onto the
         command's xy, dragging a light plate with it (by as much as a small plate's centroid
-        margin). So the first leg rises by the finger's deflection while moving the command's
-        fingertip onto the measured one (:data:`UNLOAD_MARGIN` higher); the rest is straight
-        up.
+        margin). So the first leg moves the command's fingertip onto the measured one while
+        rising by half the bend (:meth:`_unload_line`); the rest is straight up.
         """
         assert self.q_cmd is not None and self.planner is not None
         h = self.params.lift_off_height  # near a joint limit, less still unloads the finger
@@ -504,15 +503,16 @@ class SlideGraspExpert:
 
     def _unload_line(self, q_from: np.ndarray, obs: dict[str, np.ndarray]) -> np.ndarray | None:
         """Waypoints from ``q_from`` that bring the command's fingertip over the measured one
-        as high above it as the finger is bent (plus :data:`UNLOAD_MARGIN`); None if the
-        finger is not bent the usual way or the move leaves the reachable set."""
+        while rising by half the finger's bend plus :data:`UNLOAD_MARGIN` (the finger
+        unloads early in the rise: a leg rising by the whole bend still dragged a plate 5 mm);
+        None if the finger is not bent the usual way or the move leaves the reachable set."""
         cmd = self.tip.forward(q_from)[:3, 3]
         real = np.asarray(obs["fingertip_pose"][:3], dtype=float)
         bend = real - cmd
         limit = self.params.max_correction + self.params.max_object_correction
         if bend[2] <= 0.0 or np.linalg.norm(bend[:2]) > limit:
             return None
-        offset = np.r_[bend[:2], min(bend[2] + UNLOAD_MARGIN, self.params.lift_off_height)]
+        offset = np.r_[bend[:2], min(0.5 * bend[2] + UNLOAD_MARGIN, self.params.lift_off_height)]
         return cartesian_line(self.tip, q_from, offset, self.rng)
 
     def _after_lift_off(self, obs: dict[str, np.ndarray]) -> None:

@@ -45,6 +45,7 @@ import shapely
 from agents.ee_actions import EEActions
 from agents.params import (
     ExpertParams,
+    is_small_plate,
     plate_grasp_u_star,
     plate_slide_params,
     relaxed_slide_params,
@@ -140,6 +141,7 @@ class SlideGraspExpert:
         self.rng = np.random.default_rng(self.seed)
         self.centroid_margin = slide_params.centroid_margin  # set per plate by _slide_params
         self.grasp_u_star = params.grasp_u_star  # likewise
+        self.small_plate = False  # likewise: unloading lift-off (is_small_plate)
         self._steps = 0  # actions returned so far
         self._taken_over = False  # the first observation's state has been read
         self.grasp_seed: np.ndarray | None = None  # the plan's grasp, an IK seed for re-aiming
@@ -229,6 +231,7 @@ class SlideGraspExpert:
         strict = plate_slide_params(self.slide_params, self.params, self.obj.circumradius)
         self.centroid_margin = strict.centroid_margin
         self.grasp_u_star = plate_grasp_u_star(self.params, strict)
+        self.small_plate = is_small_plate(self.slide_params, self.params, self.obj.circumradius)
         return [("strict", strict), ("relaxed", relaxed_slide_params(strict))]
 
     def _budget_left(self) -> float:
@@ -478,13 +481,15 @@ class SlideGraspExpert:
         tracker's corrections included) lies centimetres from the real one, below the plate
         top. Rising straight up, the finger springs back and its tip swings onto the
         command's xy, dragging a light plate with it (by as much as a small plate's centroid
-        margin). So the first leg moves the command's fingertip onto the measured one while
-        rising by half the bend (:meth:`_unload_line`); the rest is straight up.
+        margin). So for a small plate (:func:`~agents.params.is_small_plate`) the first leg
+        moves the command's fingertip onto the measured one while rising by half the bend
+        (:meth:`_unload_line`), the rest is straight up. Larger plates, which the drag did
+        not tip (their margins were tuned with it), rise straight up from the slide's end.
         """
         assert self.q_cmd is not None and self.planner is not None
         h = self.params.lift_off_height  # near a joint limit, less still unloads the finger
         q_from = np.asarray(self.q_cmd, dtype=float)
-        line = self._unload_line(q_from, obs)
+        line = self._unload_line(q_from, obs) if self.small_plate else None
         if line is not None:
             left = h - float(self.tip.forward(line[-1])[2, 3] - self.tip.forward(q_from)[2, 3])
             up = rise(self.tip, line[-1], (left, left / 2, left / 4), False, self.rng)

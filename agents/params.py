@@ -142,11 +142,17 @@ def plate_slide_params(sp: SlideParams, p: ExpertParams, circumradius: float) ->
     # A plate that cannot overhang the grasp threshold with the full centroid margin (all
     # half-scale catalog plates, no full-scale one) draws its goal roots through its own goal
     # pose: from the band, few of them let it overhang enough.
-    small = room < u_least + sp.centroid_margin
-    sampling = "plate" if small else sp.goal_sampling
+    sampling = "plate" if is_small_plate(sp, p, circumradius) else sp.goal_sampling
     return dataclasses.replace(
         sp, u_star=u_plan, centroid_margin=margin, goal_band_width=width, goal_sampling=sampling
     )
+
+
+def is_small_plate(sp: SlideParams, p: ExpertParams, circumradius: float) -> bool:
+    """Whether a plate of ``circumradius`` (m) lacks room for ``p.grasp_u_star`` + 2 mm of
+    overhang with ``sp.centroid_margin`` (every half-scale catalog plate, no full-scale one):
+    it gets plate-first goal roots and the unloading lift-off."""
+    return circumradius - 0.003 < p.grasp_u_star + 0.002 + sp.centroid_margin
 
 
 def plate_grasp_u_star(p: ExpertParams, planned: SlideParams) -> float:

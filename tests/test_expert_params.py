@@ -8,6 +8,7 @@ import pytest
 from agents.params import (
     EXPERT_SLIDE_PARAMS,
     ExpertParams,
+    is_small_plate,
     plate_grasp_u_star,
     plate_slide_params,
 )
@@ -44,6 +45,7 @@ def test_plates_without_room_for_the_full_margin_draw_plate_first_goals(
     smallest full-scale one (the 5 cm circle) keeps the band the margins were tuned with."""
     sp = plate_slide_params(EXPERT_SLIDE_PARAMS, ExpertParams(), circumradius=radius)
     assert sp.goal_sampling == sampling
+    assert is_small_plate(EXPERT_SLIDE_PARAMS, ExpertParams(), radius) == (sampling == "plate")
 
 
 def test_a_half_scale_circle_is_planned_below_u_star_and_grasped_from_the_measured_pinch() -> None:

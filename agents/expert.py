@@ -43,7 +43,13 @@ import numpy as np
 import shapely
 
 from agents.ee_actions import EEActions
-from agents.params import ExpertParams, plate_slide_params, relaxed_slide_params
+from agents.params import (
+    ExpertParams,
+    is_small_plate,
+    plate_grasp_u_star,
+    plate_slide_params,
+    relaxed_slide_params,
+)
 from agents.record import ExpertReport
 from agents.scene import SceneLibrary
 from agents.takeover import lift_off_pressed, slide_on
@@ -76,6 +82,8 @@ the expert takes over rises first: from there every route would start in collisi
 HELD_HEIGHT = 0.01
 """m: a plate whose bottom is this far above the table top, with the hand closed, is in the
 hand when the expert takes over (it lifts and holds)."""
+UNLOAD_MARGIN = 0.005
+"""m: the lift-off's first leg rises this much more than half the pressed finger's bend."""
 APPROACH_RAISES = (0.15, 0.25, 0.35)
 """m above the pre-press pose: the approach goes via a pose raised by the first of these whose
 route is free (when the direct move is not), before a planned route is tried."""
@@ -132,6 +140,8 @@ class SlideGraspExpert:
         self.table: TableShape | None = None
         self.rng = np.random.default_rng(self.seed)
         self.centroid_margin = slide_params.centroid_margin  # set per plate by _slide_params
+        self.grasp_u_star = params.grasp_u_star  # likewise
+        self.small_plate = False  # likewise: unloading lift-off (is_small_plate)
         self._steps = 0  # actions returned so far
         self._taken_over = False  # the first observation's state has been read
         self.grasp_seed: np.ndarray | None = None  # the plan's grasp, an IK seed for re-aiming
@@ -146,6 +156,7 @@ class SlideGraspExpert:
                 self.ee.reset(self.q_cmd)
             self.obj = self.library.object_from(obs["object_outline"])
             self.table = self.library.table_from(obs["table_outline"], obs["table_height"][0])
+            self._slide_params()  # this plate's margins and grasp threshold
         if self.ee is not None and self.ee.hold():  # the pose lags the last target: wait
             assert self.ee.last is not None
             self._steps += 1
@@ -193,7 +204,7 @@ class SlideGraspExpert:
         elif self.phase == "slide":
             self._pull_back_or_lift_off(obs)
         elif self.phase == "pull_back":
-            self._lift_off()
+            self._lift_off(obs)
         elif self.phase == "lift_off":
             self._after_lift_off(obs)
         elif self.phase == "lift":
@@ -219,6 +230,8 @@ class SlideGraspExpert:
         assert self.obj is not None
         strict = plate_slide_params(self.slide_params, self.params, self.obj.circumradius)
         self.centroid_margin = strict.centroid_margin
+        self.grasp_u_star = plate_grasp_u_star(self.params, strict)
+        self.small_plate = is_small_plate(self.slide_params, self.params, self.obj.circumradius)
         return [("strict", strict), ("relaxed", relaxed_slide_params(strict))]
 
     def _budget_left(self) -> float:
@@ -246,7 +259,7 @@ class SlideGraspExpert:
         pose = self._object_pose(obs)
         placed = transform_polygon(self.obj.polygon, *pose)
         tip = np.asarray(obs["fingertip_pose"][:3], dtype=float)
-        graspable = overhang(placed, self.table.polygon).graspable(p.grasp_u_star)
+        graspable = overhang(placed, self.table.polygon).graspable(self.grasp_u_star)
         if tip[2] - float(obs["table_height"][0]) < LOW_TIP_HEIGHT:
             on_plate = placed.buffer(0.01).contains(shapely.Point(tip[0], tip[1]))
             where = "on the plate" if on_plate else "low over the table"
@@ -449,30 +462,63 @@ class SlideGraspExpert:
         depth = centroid.distance(ring) * (1.0 if inside else -1.0)
         keep = min(self.params.pull_back_margin, self.centroid_margin)
         if depth >= keep:
-            return self._lift_off()
+            return self._lift_off(obs)
         inward = (pose[:2] - edge_point) * (1.0 if inside else -1.0)
         inward /= max(float(np.linalg.norm(inward)), 1e-9)
         shift = np.r_[inward * (keep - depth + 0.005), 0.0]
         line = cartesian_line(self.tip, self.q_slide_end, shift, self.rng)
         assert self.planner is not None
         if line is None or not self.planner.route_free(line, None, mode="sliding"):
-            return self._lift_off()
+            return self._lift_off(obs)
         self.report.events.append(f"centroid {depth:.3f} m inside the edge: pulled back")
         self._push(Segment("pull_back", line, 1.0, self.params.press_speed), self.tip, track=True)
         self.q_slide_end = line[-1]
 
-    def _lift_off(self) -> None:
-        """Raise the fingertip off the plate, still holding its xy (the finger unloads)."""
-        assert self.q_cmd is not None
-        q_end = self.q_slide_end  # the nominal (uncorrected) end of the slide
+    def _lift_off(self, obs: dict[str, np.ndarray]) -> None:
+        """Raise the fingertip off the plate, untracked.
+
+        The pressed finger is bent: the arm's rigid-finger fingertip (the command, the
+        tracker's corrections included) lies centimetres from the real one, below the plate
+        top. Rising straight up, the finger springs back and its tip swings onto the
+        command's xy, dragging a light plate with it (by as much as a small plate's centroid
+        margin). So for a small plate (:func:`~agents.params.is_small_plate`) the first leg
+        moves the command's fingertip onto the measured one while rising by half the bend
+        (:meth:`_unload_line`), the rest is straight up. Larger plates, which the drag did
+        not tip (their margins were tuned with it), rise straight up from the slide's end.
+        """
+        assert self.q_cmd is not None and self.planner is not None
         h = self.params.lift_off_height  # near a joint limit, less still unloads the finger
-        line = rise(self.tip, q_end, (h, h / 2, h / 4), False, self.rng)
-        if line is None:
-            return self._fail("no IK solution to lift the fingertip off the plate")
-        assert self.planner is not None
+        q_from = np.asarray(self.q_cmd, dtype=float)
+        line = self._unload_line(q_from, obs) if self.small_plate else None
+        if line is not None:
+            left = h - float(self.tip.forward(line[-1])[2, 3] - self.tip.forward(q_from)[2, 3])
+            up = rise(self.tip, line[-1], (left, left / 2, left / 4), False, self.rng)
+            line = None if up is None else np.vstack([line, up[1:]])
+        if line is None:  # no unload leg: straight up from the slide's nominal end
+            line = rise(self.tip, self.q_slide_end, (h, h / 2, h / 4), False, self.rng)
+            if line is None:
+                return self._fail("no IK solution to lift the fingertip off the plate")
+            if not self.planner.route_free(line, None, mode="sliding"):
+                return self._fail("the lift-off move would collide")
+            seg = Segment("lift_off", line, 1.0, self.params.lift_off_speed)
+            return self._push(seg, self.tip, track=True)
         if not self.planner.route_free(line, None, mode="sliding"):
             return self._fail("the lift-off move would collide")
-        self._push(Segment("lift_off", line, 1.0, self.params.lift_off_speed), self.tip, track=True)
+        self._push(Segment("lift_off", line, 1.0, self.params.lift_off_speed), self.tip)
+
+    def _unload_line(self, q_from: np.ndarray, obs: dict[str, np.ndarray]) -> np.ndarray | None:
+        """Waypoints from ``q_from`` that bring the command's fingertip over the measured one
+        while rising by half the finger's bend plus :data:`UNLOAD_MARGIN` (the finger
+        unloads early in the rise: a leg rising by the whole bend still dragged a plate 5 mm);
+        None if the finger is not bent the usual way or the move leaves the reachable set."""
+        cmd = self.tip.forward(q_from)[:3, 3]
+        real = np.asarray(obs["fingertip_pose"][:3], dtype=float)
+        bend = real - cmd
+        limit = self.params.max_correction + self.params.max_object_correction
+        if bend[2] <= 0.0 or np.linalg.norm(bend[:2]) > limit:
+            return None
+        offset = np.r_[bend[:2], min(0.5 * bend[2] + UNLOAD_MARGIN, self.params.lift_off_height)]
+        return cartesian_line(self.tip, q_from, offset, self.rng)
 
     def _after_lift_off(self, obs: dict[str, np.ndarray]) -> None:
         """Compare the real slid pose with Eq. 2; re-aim the grasp at it, or replan."""
@@ -485,7 +531,7 @@ class SlideGraspExpert:
         placed = transform_polygon(self.obj.polygon, *actual)
         ov = overhang(placed, self.table.polygon)
         ok, info = False, {"reason": "overhang below u_star or centroid off the table"}
-        if ov.graspable(self.params.grasp_u_star):
+        if ov.graspable(self.grasp_u_star):
             budget = self._budget_left()
             if budget <= 0.0:
                 return self._fail("planning budget used up before re-aiming the grasp")
@@ -514,7 +560,7 @@ class SlideGraspExpert:
         ok, info = self.planner.reaim_grasp(
             pose,
             self.q_cmd,
-            self.params.grasp_u_star,
+            self.grasp_u_star,
             max_iterations=self.params.grasp_iterations,
             time_budget=budget,
             grasp_seed=grasp_seed,

@@ -37,7 +37,8 @@ EXPERT_SLIDE_PARAMS = SlideParams(
 - the grasp approached from a stand-off 6 cm out, clear of the plate's corners;
 - goal roots from the paper's band C_g (``goal_sampling="band"``), which these margins were
   tuned with: with the plate-first goals, the L on the square table (seed 2, ee_delta
-  control) fell off while grasped. Switching needs the expert's own measurement."""
+  control) fell off while grasped. Plates too small for the full margins draw plate-first
+  goals (:func:`plate_slide_params`)."""
 
 
 _COUNTS = ("max_replans", "strict_plan_iterations", "grasp_iterations", "route_iterations")
@@ -100,6 +101,7 @@ class ExpertParams:
     route_iterations: int = 200  # route planner iterations for the approach, if needed
     min_centroid_margin: float = 0.005  # m, for plates too small for the full margin
     grasp_u_star: float = MIN_CONTACT_SIZE + 0.002  # m, least real overhang to grasp (u* + 2 mm)
+    pinch_u_star: float = 0.0175  # m, least overhang measured to pinch and lift (small plates)
 
     def __post_init__(self) -> None:
         for name, value in dataclasses.asdict(self).items():
@@ -117,13 +119,17 @@ def plate_slide_params(sp: SlideParams, p: ExpertParams, circumradius: float) ->
     A plate's overhang plus its centroid's depth inside the edge cannot exceed its
     circumradius. Both start from their least useful values (``p.grasp_u_star`` + 2 mm,
     ``p.min_centroid_margin``) and share the room left, up to ``sp``'s full margins: large
-    plates get those, small ones less.
+    plates get those, small ones less. A plate with no room for both plans its overhang down
+    to ``p.pinch_u_star`` + 2 mm (then grasped from :func:`plate_grasp_u_star`). A plate
+    without room for ``p.grasp_u_star`` + 2 mm of overhang and ``sp.centroid_margin`` draws
+    its goal roots with ``goal_sampling="plate"``.
     """
     room = circumradius - 0.003
     u_least, m_least = p.grasp_u_star + 0.002, p.min_centroid_margin
     extra = room - u_least - m_least
-    if extra <= 0.0:
-        u_plan, margin = max(MIN_CONTACT_SIZE, room - m_least), m_least
+    if extra <= 0.0:  # down to the overhang the hand was measured to pinch (plate_grasp_u_star)
+        u_plan = max(min(MIN_CONTACT_SIZE, p.pinch_u_star + 0.002), room - m_least)
+        margin = m_least
     else:
         u_plan = min(sp.u_star, u_least + 0.5 * extra)
         margin = min(sp.centroid_margin, room - u_plan)
@@ -133,7 +139,29 @@ def plate_slide_params(sp: SlideParams, p: ExpertParams, circumradius: float) ->
     # small plates draw mostly hopeless goals.
     reach_in = circumradius + (sp.press_radius or circumradius) + 0.01 - u_plan
     width = min(sp.goal_band_width, max(reach_in, sp.tip_edge_margin + 0.01))
-    return dataclasses.replace(sp, u_star=u_plan, centroid_margin=margin, goal_band_width=width)
+    # A plate that cannot overhang the grasp threshold with the full centroid margin (all
+    # half-scale catalog plates, no full-scale one) draws its goal roots through its own goal
+    # pose: from the band, few of them let it overhang enough.
+    sampling = "plate" if is_small_plate(sp, p, circumradius) else sp.goal_sampling
+    return dataclasses.replace(
+        sp, u_star=u_plan, centroid_margin=margin, goal_band_width=width, goal_sampling=sampling
+    )
+
+
+def is_small_plate(sp: SlideParams, p: ExpertParams, circumradius: float) -> bool:
+    """Whether a plate of ``circumradius`` (m) lacks room for ``p.grasp_u_star`` + 2 mm of
+    overhang with ``sp.centroid_margin`` (every half-scale catalog plate, no full-scale one):
+    it gets plate-first goal roots and the unloading lift-off."""
+    return circumradius - 0.003 < p.grasp_u_star + 0.002 + sp.centroid_margin
+
+
+def plate_grasp_u_star(p: ExpertParams, planned: SlideParams) -> float:
+    """The least real overhang (m) at which the expert grasps a plate planned with
+    ``planned`` (:func:`plate_slide_params`): ``p.grasp_u_star``, or for a plate too small to
+    be planned 2 mm beyond it, 2 mm below the planned overhang but not below
+    ``p.pinch_u_star`` (the least overhang of a half-scale circle and square corner the T42
+    pinched and lifted in physics; 1.25 cm and, in 2 of 3 placements, 1.5 cm slipped)."""
+    return min(p.grasp_u_star, max(p.pinch_u_star, planned.u_star - 0.002))
 
 
 def relaxed_slide_params(params: SlideParams) -> SlideParams:

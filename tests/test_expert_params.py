@@ -5,7 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from agents.params import EXPERT_SLIDE_PARAMS, ExpertParams, plate_slide_params
+from agents.params import (
+    EXPERT_SLIDE_PARAMS,
+    ExpertParams,
+    is_small_plate,
+    plate_grasp_u_star,
+    plate_slide_params,
+)
 from agents.trajectory import Segment, time_segment
 from slide_gym.robot.model import MIN_CONTACT_SIZE
 
@@ -15,14 +21,38 @@ def test_large_plates_get_the_full_margins_and_goal_band() -> None:
     assert sp.u_star == EXPERT_SLIDE_PARAMS.u_star
     assert sp.centroid_margin == EXPERT_SLIDE_PARAMS.centroid_margin
     assert sp.goal_band_width == EXPERT_SLIDE_PARAMS.goal_band_width
+    assert sp.goal_sampling == EXPERT_SLIDE_PARAMS.goal_sampling == "band"
+    assert plate_grasp_u_star(ExpertParams(), sp) == ExpertParams().grasp_u_star
 
 
 @pytest.mark.parametrize("radius", [0.025, 0.033, 0.045])
 def test_small_plates_plan_less_overhang_in_a_narrower_goal_band(radius: float) -> None:
     sp = plate_slide_params(EXPERT_SLIDE_PARAMS, ExpertParams(), circumradius=radius)
-    assert MIN_CONTACT_SIZE <= sp.u_star < EXPERT_SLIDE_PARAMS.u_star
+    p = ExpertParams()
+    assert p.pinch_u_star + 0.002 <= sp.u_star < EXPERT_SLIDE_PARAMS.u_star
+    assert p.pinch_u_star <= plate_grasp_u_star(p, sp) <= min(p.grasp_u_star, sp.u_star)
     assert sp.u_star + sp.centroid_margin <= radius
     assert sp.tip_edge_margin + 0.01 <= sp.goal_band_width < EXPERT_SLIDE_PARAMS.goal_band_width
+
+
+@pytest.mark.parametrize(
+    ("radius", "sampling"), [(0.025, "plate"), (0.037, "plate"), (0.05, "band")]
+)
+def test_plates_without_room_for_the_full_margin_draw_plate_first_goals(
+    radius: float, sampling: str
+) -> None:
+    """Half-scale catalog plates (circumradius 2.5-3.7 cm) get plate-first goal roots; the
+    smallest full-scale one (the 5 cm circle) keeps the band the margins were tuned with."""
+    sp = plate_slide_params(EXPERT_SLIDE_PARAMS, ExpertParams(), circumradius=radius)
+    assert sp.goal_sampling == sampling
+    assert is_small_plate(EXPERT_SLIDE_PARAMS, ExpertParams(), radius) == (sampling == "plate")
+
+
+def test_a_half_scale_circle_is_planned_below_u_star_and_grasped_from_the_measured_pinch() -> None:
+    p = ExpertParams()
+    sp = plate_slide_params(EXPERT_SLIDE_PARAMS, p, circumradius=0.025)
+    assert sp.u_star < MIN_CONTACT_SIZE and sp.u_star + sp.centroid_margin <= 0.025
+    assert plate_grasp_u_star(p, sp) == pytest.approx(p.pinch_u_star)
 
 
 def test_ramped_legs_start_and_stop_gently_and_arrive() -> None:

@@ -25,7 +25,7 @@ import os
 import shutil
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -58,6 +58,9 @@ class Row:
 
 
 SQUARE_SLIDE = {"episodes": 200, "only_success": True}
+HORIZON_ROWS = {"dp-ee-square-slide-10k": 2, "dp-ee-catalog-slide": 2}
+"""Rows whose trained policy is also tested at another action horizon (chosen on validation
+seeds with ``horizon``): row ``NAME-hK``."""
 OFFSETS = ["--actions", "offsets"]
 """The chunks of the rows trained before per-step deltas became the default."""
 ROWS = {
@@ -193,17 +196,6 @@ ROWS = {
             ["--actions", "deltas", "--scaling", "standard", "--iterations", "10000"],
         ),
         Row(
-            "dp-ee-catalog-slide-h2",
-            "dp",
-            SLIDE,
-            {**CATALOG, **EE},
-            "slide-gym/catalog-slide-ee-v1",
-            {"episodes": 400, "only_success": True},
-            ["--actions", "deltas", "--scaling", "standard", "--iterations", "10000"],
-            base="dp-ee-catalog-slide",
-            action_horizon=2,
-        ),
-        Row(
             "dp-ee-square-slide-nofeat",
             "dp",
             SLIDE,
@@ -230,28 +222,6 @@ ROWS = {
             "slide-gym/square-slide-ee-v1",
             SQUARE_SLIDE,
             ["--iterations", "10000"],
-        ),
-        Row(
-            "dp-ee-square-slide-10k-h4",
-            "dp",
-            SLIDE,
-            {**SQUARE, **EE},
-            "slide-gym/square-slide-ee-v1",
-            SQUARE_SLIDE,
-            ["--iterations", "10000"],
-            base="dp-ee-square-slide-10k",
-            action_horizon=4,
-        ),
-        Row(
-            "dp-ee-square-slide-10k-h2",
-            "dp",
-            SLIDE,
-            {**SQUARE, **EE},
-            "slide-gym/square-slide-ee-v1",
-            SQUARE_SLIDE,
-            ["--iterations", "10000"],
-            base="dp-ee-square-slide-10k",
-            action_horizon=2,
         ),
         Row(
             "dp-dagger2-ee-square-slide",
@@ -301,6 +271,14 @@ ROWS = {
         ),
     ]
 }
+
+
+ROWS.update(
+    {
+        f"{name}-h{k}": replace(ROWS[name], name=f"{name}-h{k}", base=name, action_horizon=k)
+        for name, k in HORIZON_ROWS.items()
+    }
+)
 
 
 def command(row: Row, models: Path) -> str:

@@ -14,7 +14,6 @@ import time
 from typing import TYPE_CHECKING
 
 import numpy as np
-import shapely
 
 from slide_gym.planning.api import TopSlidePlanner, TopSlideProblem
 from slide_gym.planning.result import PlanStatus
@@ -22,11 +21,6 @@ from slide_gym.planning.result import PlanStatus
 if TYPE_CHECKING:
     from agents.expert import SlideGraspExpert
 
-SLIDE_ON_SLACK = 0.05
-"""m: a slide-on goal lies at most this much farther from the fingertip than the nearest
-point of the goal band P_g, so successive label queries of a DAgger rollout all slide toward
-the edge the plate is nearest to, not to whichever edge a draw picked (the full band is kept
-when that leaves nothing)."""
 SLIDE_ON_SEED = 11
 """Mixed into the seed of a slide-on plan (its numbers differ from a first plan's)."""
 
@@ -34,14 +28,6 @@ SLIDE_ON_SEED = 11
 def _seed_key(expert: SlideGraspExpert, pose: np.ndarray, k: int) -> list[int]:
     key = [expert.seed, SLIDE_ON_SEED, k]
     return key + list(np.round(pose * 1e4).astype(np.int64) % 2**32)
-
-
-def near_band(band: shapely.Geometry, tip_xy: np.ndarray) -> shapely.Geometry:
-    """The part of the goal band within :data:`SLIDE_ON_SLACK` of its nearest distance from
-    the fingertip (the whole band if that part is empty)."""
-    tip = shapely.Point(float(tip_xy[0]), float(tip_xy[1]))
-    near = band.intersection(tip.buffer(band.distance(tip) + SLIDE_ON_SLACK))
-    return band if near.is_empty else near
 
 
 def slide_on(expert: SlideGraspExpert, obs: dict[str, np.ndarray]) -> str | None:
@@ -63,7 +49,6 @@ def slide_on(expert: SlideGraspExpert, obs: dict[str, np.ndarray]) -> str | None
             problem = TopSlideProblem(expert.obj, expert.table, pose, params, allow_overhang=True)
         except ValueError as exc:
             return f"cannot plan from the object's pose: {exc}"
-        problem.goal_band = near_band(problem.goal_band, obs["fingertip_pose"][:2])
         rng = np.random.default_rng(np.random.SeedSequence(_seed_key(expert, pose, k)))
         planner = TopSlidePlanner(problem, "regions", rng, start_config=q_start)
         t0 = time.perf_counter()

@@ -224,6 +224,14 @@ ROWS = {
             ["--iterations", "10000"],
         ),
         Row(
+            "dp-ee-square-slide-1000",
+            "dp",
+            SLIDE,
+            {**SQUARE, **EE},
+            "slide-gym/square-slide-ee-1000-v1",
+            {"episodes": 1000, "only_success": True},
+        ),
+        Row(
             "dp-dagger2-ee-square-slide",
             "dp-dagger",
             SLIDE,

@@ -145,6 +145,9 @@ class SlideGraspExpert:
         self._steps = 0  # actions returned so far
         self._taken_over = False  # the first observation's state has been read
         self.grasp_seed: np.ndarray | None = None  # the plan's grasp, an IK seed for re-aiming
+        self.target: np.ndarray | None = None  # the last action's joint target
+        self.object_start: np.ndarray | None = None  # the plate's pose the plan started from
+        self._before: tuple[np.ndarray, float, np.ndarray | None] | None = None  # see follow
         self.report = ExpertReport()
 
     # ------------------------------------------------------------------ act
@@ -180,6 +183,12 @@ class SlideGraspExpert:
 
     def _action(self, target: np.ndarray, hand: float) -> np.ndarray:
         assert self.q_cmd is not None
+        self.target = np.asarray(target, dtype=float)
+        self._before = (
+            self.q_cmd.copy(),
+            self.hand_cmd,
+            None if self.ee is None else self.ee.control.get_state(),
+        )
         self.hand_cmd = hand
         if self.ee is not None:
             action = self.ee.action(target, hand)
@@ -189,6 +198,39 @@ class SlideGraspExpert:
         delta = np.clip((target - self.q_cmd) / self.max_joint_step, -1.0, 1.0)
         self.q_cmd = np.clip(self.q_cmd + self.max_joint_step * delta, ARM_LOWER, ARM_UPPER)
         return np.r_[delta, 2.0 * hand - 1.0].astype(np.float32)
+
+    def follow(self, action: np.ndarray) -> None:
+        """The environment executed ``action`` instead of this expert's last one (a learner
+        acted): carry on from the command that ``action`` gives, as the environment's
+        controller computed it. The plan and its queue stay; only the command moves."""
+        if self._before is None:
+            return
+        q_before, hand_before, ee_state = self._before
+        a = np.clip(np.asarray(action, dtype=float).reshape(-1), -1.0, 1.0)
+        self.hand_cmd = float((a[-1] + 1.0) / 2.0) if np.isfinite(a[-1]) else hand_before
+        if self.ee is not None:
+            assert ee_state is not None
+            self.ee.control.set_state(ee_state)
+            self.ee.control.apply(a)
+            self.q_cmd = self.ee.q_cmd
+        else:
+            step = self.max_joint_step * a[:-1]
+            self.q_cmd = np.clip(q_before + step, ARM_LOWER, ARM_UPPER)
+
+    def off_plan(self, obs: dict[str, np.ndarray], drift: float, plate_tol: float) -> bool:
+        """Whether the state has left this expert's plan: during the approach, the plate moved
+        more than ``plate_tol`` (m) from where the plan found it (the approach itself leads
+        any arm back to the plan's press); from the press on, the commanded fingertip is more
+        than ``drift`` (m) from where the plan has it now."""
+        if self.q_cmd is None or self.target is None or self.phase in ("done", "failed"):
+            return False
+        if self.phase in ("plan", "approach"):
+            if self.object_start is None:
+                return False
+            moved = self._object_pose(obs)[:2] - np.asarray(self.object_start)[:2]
+            return bool(np.linalg.norm(moved) > plate_tol)
+        tips = self.tip.forward(np.stack([self.q_cmd, self.target]))[:, :3, 3]
+        return bool(np.linalg.norm(tips[0] - tips[1]) > drift)
 
     # --------------------------------------------------------------- stages
     def _advance(self, obs: dict[str, np.ndarray]) -> None:

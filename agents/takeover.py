@@ -23,6 +23,10 @@ if TYPE_CHECKING:
 
 SLIDE_ON_SEED = 11
 """Mixed into the seed of a slide-on plan (its numbers differ from a first plan's)."""
+RESEAT_TOLERANCE = (0.03, 0.3)
+"""(m, rad): a pressed arm off the contact manifold by at most this much (a learner's
+fingertip rolled or pitched away from the planner's) is re-seated onto it by the slide's first
+leg; farther off, the expert raises the fingertip instead."""
 
 
 def _seed_key(expert: SlideGraspExpert, pose: np.ndarray, k: int) -> list[int]:
@@ -50,13 +54,18 @@ def slide_on(expert: SlideGraspExpert, obs: dict[str, np.ndarray]) -> str | None
         except ValueError as exc:
             return f"cannot plan from the object's pose: {exc}"
         rng = np.random.default_rng(np.random.SeedSequence(_seed_key(expert, pose, k)))
-        planner = TopSlidePlanner(problem, "regions", rng, start_config=q_start)
+        planner = TopSlidePlanner(
+            problem, "regions", rng, start_config=q_start, start_tolerance=RESEAT_TOLERANCE
+        )
         t0 = time.perf_counter()
         result = planner.solve(budget)
         expert.report.planning_time_s += time.perf_counter() - t0
         if result.solved:
             expert.use_plan(planner, result, pose)
-            expert.queue_slide(result.start_config, result.path, pose)
+            path = result.path
+            if np.abs(result.start_config - q_start).max() > 1e-6:
+                path = np.vstack([q_start, path])  # the first leg re-seats the fingertip
+            expert.queue_slide(q_start, path, pose)
             return None
         planner.close()
         why = f"{name} plan: {result.status.value}: {result.reason}"

@@ -41,7 +41,7 @@ def main() -> None:
         "policy": args.policy,
         "config": config.to_json(),
         "expert_share": args.expert_share,
-        "label_budget": 5.0,
+        "label_budget": 10.0,
         "dagger_seed": 0,
         "max_steps": args.max_steps,
     }

@@ -241,6 +241,16 @@ ROWS = {
             ["--rounds", "1", "--episodes", "20", "--workers", "1"],
             base="dp-ee-square-slide-10k",
         ),
+        Row(
+            "dp-dagger3-ee-square-slide",
+            "dp-dagger",
+            SLIDE,
+            {**SQUARE, **EE},
+            "slide-gym/square-slide-ee-dagger-v3",
+            {},
+            ["--rounds", "1", "--episodes", "20", "--workers", "1"],
+            base="dp-ee-square-slide-10k",
+        ),
         Row("expert-ee-square-grasp", "expert", GRASP, {**SQUARE, **EE}),
         Row(
             "bc-ee-square-grasp",

@@ -2,13 +2,12 @@
 reaches, the labels join the dataset, and the policy is trained again.
 
 Round ``r`` runs ``episodes`` learner episodes (reset seeds from :data:`DAGGER_SEED`, never
-a validation or test seed). At every chunk boundary (each ``action_horizon`` steps) a fresh
-:class:`~agents.planner_agent.PlannerAgent` is started from the current observation (it takes
-over from any state, deterministically seeded from the episode seed and the step) and gives
-the labels of the chunk's steps, seeing the same observations the learner sees. With
-probability ``beta * decay ** (r - 1)`` (seeded) the expert's actions are the ones executed
-for that chunk; otherwise the learner's are. A label query whose plan fails is dropped (its
-steps carry NaN labels, which the trainer skips) and counted.
+a validation or test seed). A :class:`~agents.learned.labeler.PlanLabeler` labels every step:
+one expert per episode keeps its plan and follows the executed actions, and a fresh one takes
+over (from any state) only at a chunk boundary (each ``action_horizon`` steps) where the
+learner has left the plan. With probability ``beta * decay ** (r - 1)`` (seeded) the
+expert's actions are the ones executed for a chunk; otherwise the learner's are. Labels of
+an expert whose plan failed are dropped (NaN, which the trainer skips) and counted.
 
 Each episode is kept like a collected one (executed actions, so a reset with its seed and
 options replays it exactly; the labels in ``infos["expert_action"]``; ``dagger_round`` in
@@ -29,6 +28,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from agents.learned.labeler import PlanLabeler
 from agents.learned.policy import DiffusionPolicy, is_policy_dir
 from slide_gym.datasets.config import CollectConfig, check_dataset_id
 from slide_gym.datasets.recording import (
@@ -60,7 +60,7 @@ class DaggerConfig:
     episodes: int = 20
     beta: float = 0.5
     decay: float = 0.5
-    label_budget: float = 5.0
+    label_budget: float = 10.0
     iterations: int = 5_000
     seed: int = 0
     max_steps: int | None = None
@@ -87,15 +87,8 @@ class DaggerConfig:
         return float(self.beta * self.decay ** (round_ - 1))
 
 
-def label_seed(episode_seed: int, step: int) -> int:
-    """The seed of the expert that labels the chunk starting at ``step``."""
-    return int(np.random.SeedSequence([int(episode_seed), int(step)]).generate_state(1)[0])
-
-
 def rollout_case(case: dict[str, Any]) -> dict[str, Any]:
     """One learner episode with expert labels (a job-runner case); bytes in ``payload``."""
-    from agents.planner_agent import PlannerAgent
-
     config = CollectConfig.from_json(case["config"])
     seed, round_ = int(case["seed"]), int(case["round"])
     policy = DiffusionPolicy.load(case["policy"], seed=seed)
@@ -104,43 +97,26 @@ def rollout_case(case: dict[str, Any]) -> dict[str, Any]:
     env = gym.make(config.env_id, **config.env_kwargs())
     base = env.unwrapped
     observations, infos, steps, labels = [], [], [], []
-    queries = failures = expert_chunks = 0
-    reasons: dict[str, int] = {}
-    expert: PlannerAgent | None = None
+    expert_chunks = 0
+    labeler: PlanLabeler | None = None
     wall = time.perf_counter()
     try:
         obs, info = env.reset(seed=seed)
         options = reset_options(env, config)
+        labeler = PlanLabeler(config, seed, case["label_budget"], base.task.object, base.task.table)
         observations.append(obs)
         infos.append(step_info(info, base.get_state()))
-        t, done, expert_acts, failed = 0, False, False, False
+        t, done, expert_acts = 0, False, False
         while not done:
-            if t % horizon == 0:
-                if expert is not None:
-                    expert.close()
-                expert = PlannerAgent(
-                    config.agent,
-                    case["label_budget"],
-                    seed=label_seed(seed, t),
-                    objects=[base.task.object],
-                    tables=[base.task.table],
-                    control_mode=config.control_mode,
-                )
+            boundary = t % horizon == 0
+            label = labeler.label(obs, t, boundary)
+            if boundary:
                 expert_acts = bool(rng.random() < case["expert_share"])
-                queries += 1
-            assert expert is not None
-            label, _ = expert.predict(obs, episode_start=np.array([t % horizon == 0]))
-            slot = expert.expert(0)
-            if t % horizon == 0:
-                failed = slot is not None and slot.phase == "failed"
-                failures += failed
-                if failed and slot is not None:
-                    why = str(slot.report.gave_up).split(":")[0]
-                    reasons[why] = reasons.get(why, 0) + 1
-                expert_chunks += expert_acts and not failed
             learner, _ = policy.predict(obs, episode_start=np.array([t == 0]))
-            action = label if expert_acts and not failed else learner
-            labels.append(np.full_like(label, np.nan) if failed else np.asarray(label))
+            action = label if expert_acts and label is not None else learner
+            expert_chunks += boundary and expert_acts and label is not None
+            labeler.executed(action)
+            labels.append(np.full_like(learner, np.nan) if label is None else label)
             obs, reward, term, trunc, info = env.step(action)
             steps.append((np.asarray(action, np.float32), float(reward), term, trunc))
             observations.append(obs)
@@ -148,9 +124,11 @@ def rollout_case(case: dict[str, Any]) -> dict[str, Any]:
             t += 1
             done = term or trunc or (case["max_steps"] is not None and t >= case["max_steps"])
     finally:
-        if expert is not None:
-            expert.close()
+        if labeler is not None:
+            labeler.close()
         env.close()
+    queries, failures = labeler.queries, labeler.failures
+    reasons = labeler.reasons
     actions = np.stack([s[0] for s in steps])
     stacked = stack_infos(infos)
     stacked[LABEL_KEY] = np.concatenate([np.zeros_like(actions[:1]), np.stack(labels)])

@@ -180,7 +180,7 @@ def add_parsers(sub: Any) -> None:
     p.add_argument("--beta", type=float, default=0.5, help="expert share of chunks in round 1")
     p.add_argument("--decay", type=float, default=0.5, help="its factor per later round")
     p.add_argument(
-        "--label-budget", type=float, default=5.0, metavar="S", help="planning s per label query"
+        "--label-budget", type=float, default=10.0, metavar="S", help="planning s per label query"
     )
     p.add_argument(
         "--iterations", type=int, default=5_000, metavar="N", help="training iterations per round"

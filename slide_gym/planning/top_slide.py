@@ -94,6 +94,8 @@ class TopSlidePlanner(Planner):
             :data:`START_JOINT_TOLERANCE`, collides or leaves the contact off the plate makes
             ``solve`` answer ``INFEASIBLE`` with the reason. The result's ``start_config`` is
             the projected configuration.
+        start_tolerance: (m, rad) the most the projection may move the fixed start's
+            fingertip and any joint (default those two constants).
     """
 
     def __init__(
@@ -102,6 +104,7 @@ class TopSlidePlanner(Planner):
         planner: str = "regions",
         seed: int | Sequence[int] | np.random.Generator | None = None,
         start_config: Any = None,
+        start_tolerance: tuple[float, float] = (START_TIP_TOLERANCE, START_JOINT_TOLERANCE),
     ):
         if planner not in PLANNERS:
             raise ValueError(f"planner must be one of {', '.join(PLANNERS)}, got {planner!r}")
@@ -113,6 +116,12 @@ class TopSlidePlanner(Planner):
                 raise ValueError(
                     f"start_config must be 7 finite joint angles, got {start_config.tolist()}"
                 )
+        tip_tol, joint_tol = (float(v) for v in start_tolerance)
+        if not (np.isfinite([tip_tol, joint_tol]).all() and tip_tol > 0 and joint_tol > 0):
+            raise ValueError(
+                f"start_tolerance must be (metres, radians), both positive, got {start_tolerance}"
+            )
+        self.start_tolerance = (tip_tol, joint_tol)
         self.problem = problem
         self.name = planner
         self.seed = seed if not isinstance(seed, np.random.Generator) else None
@@ -169,11 +178,11 @@ class TopSlidePlanner(Planner):
             self._bad_start = "the start configuration cannot be projected onto the manifold"
             return
         tip, joint = self.tip_distance(q, q_p), float(np.abs(q_p - q).max())
-        if tip > START_TIP_TOLERANCE or joint > START_JOINT_TOLERANCE:
+        tip_tol, joint_tol = self.start_tolerance
+        if tip > tip_tol or joint > joint_tol:
             self._bad_start = (
                 f"projecting the start configuration moves the fingertip {tip:.4f} m and a "
-                f"joint {joint:.3f} rad (at most {START_TIP_TOLERANCE} m and "
-                f"{START_JOINT_TOLERANCE} rad)"
+                f"joint {joint:.3f} rad (at most {tip_tol} m and {joint_tol} rad)"
             )
         elif self.collides(q_p):
             self._bad_start = "the (projected) start configuration collides"

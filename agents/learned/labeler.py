@@ -1,0 +1,107 @@
+"""DAgger's label expert: one planner expert per learner episode that keeps its plan.
+
+The expert plans once from the episode's first state. At every step it gives the action it
+would take from the command the environment holds (the label), then follows the action that
+was actually executed (:meth:`agents.expert.SlideGraspExpert.follow`), so its next label
+starts from the true command and still heads for the same plan. At a chunk boundary a fresh
+expert takes over from the current state (:mod:`agents.takeover`; seeded from the episode
+seed and the step) when the learner has left the plan (the plate moved during the approach,
+or from the press on the commanded fingertip is more than ``drift`` from the plan's) or the
+expert has failed. Labels of a failed expert are NaN until the next boundary.
+
+A fresh expert every chunk (the first design) planned a new press point each time and
+ramped up from rest, so the labels before contact pointed somewhere new every chunk and,
+followed alone, hovered over the plate without pressing.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from agents.planner_agent import PlannerAgent
+from slide_gym.datasets.config import CollectConfig
+from slide_gym.geometry import ObjectShape, TableShape
+
+DRIFT_M = 0.03
+"""m: a commanded fingertip this far from the plan's has left it."""
+PLATE_TOL_M = 0.005
+"""m: a plate moved this far during the approach has left the plan."""
+
+
+def label_seed(episode_seed: int, step: int) -> int:
+    """The seed of the expert that takes over at ``step`` of the episode."""
+    return int(np.random.SeedSequence([int(episode_seed), int(step)]).generate_state(1)[0])
+
+
+class PlanLabeler:
+    """Labels one learner episode (see the module docstring).
+
+    Args:
+        config: the dataset's collection settings (planner, control mode).
+        seed: the episode's reset seed.
+        budget: planning seconds per expert (a takeover gets a fresh budget).
+        obj, table: the episode's shapes (the expert recognises the scene by them).
+    """
+
+    def __init__(
+        self,
+        config: CollectConfig,
+        seed: int,
+        budget: float,
+        obj: ObjectShape,
+        table: TableShape,
+        *,
+        drift: float = DRIFT_M,
+        plate_tol: float = PLATE_TOL_M,
+    ):
+        self.config, self.seed, self.budget = config, int(seed), float(budget)
+        self.shapes = ([obj], [table])
+        self.drift, self.plate_tol = float(drift), float(plate_tol)
+        self.agent: PlannerAgent | None = None
+        self.queries = self.failures = 0
+        self.reasons: dict[str, int] = {}
+
+    def label(self, obs: dict[str, np.ndarray], step: int, boundary: bool) -> np.ndarray | None:
+        """The expert's action for ``obs`` (None while its expert has failed); at a chunk
+        ``boundary`` a fresh expert takes over if the learner has left the plan."""
+        slot = None if self.agent is None else self.agent.expert(0)
+        stale = slot is None or slot.phase == "failed"
+        fresh = boundary and (stale or (slot is not None and slot.off_plan(obs, *self._tols)))
+        if fresh:
+            self.close()
+            self.agent = PlannerAgent(
+                self.config.agent,
+                self.budget,
+                seed=label_seed(self.seed, step),
+                objects=self.shapes[0],
+                tables=self.shapes[1],
+                control_mode=self.config.control_mode,
+            )
+            self.queries += 1
+        elif stale:
+            return None
+        assert self.agent is not None
+        action, _ = self.agent.predict(obs, episode_start=np.array([fresh]))
+        slot = self.agent.expert(0)
+        assert slot is not None
+        if slot.phase == "failed":
+            self.failures += 1
+            why = str(slot.report.gave_up).split(":")[0]
+            self.reasons[why] = self.reasons.get(why, 0) + 1
+            return None
+        return np.asarray(action)
+
+    def executed(self, action: np.ndarray) -> None:
+        """The environment executed ``action``: the expert carries on from its command."""
+        slot = None if self.agent is None else self.agent.expert(0)
+        if slot is not None and slot.phase != "failed":
+            slot.follow(action)
+
+    @property
+    def _tols(self) -> tuple[float, float]:
+        return self.drift, self.plate_tol
+
+    def close(self) -> None:
+        if self.agent is not None:
+            self.agent.close()
+            self.agent = None

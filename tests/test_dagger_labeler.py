@@ -1,0 +1,60 @@
+"""DAgger's label expert keeps one plan per rollout: it follows the executed actions and is
+replaced only where the learner has left its plan."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import slide_gym  # noqa: F401 - registers the envs
+from agents.learned.labeler import PlanLabeler
+from slide_gym.datasets.config import CollectConfig
+
+CONFIG = CollectConfig(
+    env_id="SlideGym/TopSlide-v0", object="square", table="square", control_mode="ee_delta"
+)
+
+
+@pytest.fixture
+def scene():
+    env = gym.make(CONFIG.env_id, **CONFIG.env_kwargs())
+    obs, _ = env.reset(seed=3)
+    base = env.unwrapped
+    labeler = PlanLabeler(CONFIG, 3, 60.0, base.task.object, base.task.table)
+    yield env, obs, labeler
+    labeler.close()
+    env.close()
+
+
+def test_the_expert_follows_the_executed_actions_and_keeps_its_plan(scene):
+    env, obs, labeler = scene
+    rng = np.random.default_rng(0)
+    targets = []
+    for t in range(24):
+        label = labeler.label(obs, t, t % 8 == 0)
+        assert label is not None and np.isfinite(label).all()
+        learner = np.r_[rng.uniform(-0.5, 0.5, 6), -1.0].astype(np.float32)
+        labeler.executed(learner)
+        obs, *_ = env.step(learner)
+        expert = labeler.agent.expert(0)
+        # the expert's command is the environment's (to the 1e-6 rad its start read off the
+        # observed arm), though the learner acted
+        assert np.allclose(expert.q_cmd, env.unwrapped.control.target, atol=1e-5)
+        targets.append(expert.target)
+    assert labeler.queries == 1 and labeler.failures == 0  # one plan: the learner stayed near
+    assert not np.allclose(targets[0], targets[-1])  # and the plan went on
+
+
+def test_a_plate_moved_during_the_approach_gets_a_fresh_expert(scene):
+    env, obs, labeler = scene
+    labeler.label(obs, 0, True)
+    expert = labeler.agent.expert(0)
+    assert expert.phase == "approach"
+    assert not expert.off_plan(obs, 0.03, 0.005)
+    moved = {**obs, "object_pose": obs["object_pose"] + np.r_[0.01, 0, 0, 0, 0, 0, 0]}
+    assert expert.off_plan(moved, 0.03, 0.005)
+    labeler.label(moved, 1, False)  # not at a chunk boundary: the plan stays
+    assert labeler.queries == 1
+    labeler.label(moved, 8, True)
+    assert labeler.queries == 2 and labeler.agent.expert(0) is not expert

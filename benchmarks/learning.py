@@ -253,6 +253,25 @@ ROWS = {
         ),
         Row("expert-ee-square-grasp", "expert", GRASP, {**SQUARE, **EE}),
         Row(
+            "dp-ee-square-grasp-10k",
+            "dp",
+            GRASP,
+            {**SQUARE, **EE},
+            "slide-gym/square-grasp-ee-v1",
+            SQUARE_SLIDE,
+            ["--iterations", "10000", "--val-episodes", "10"],
+        ),
+        Row(
+            "dp-dagger-ee-square-grasp",
+            "dp-dagger",
+            GRASP,
+            {**SQUARE, **EE},
+            "slide-gym/square-grasp-ee-dagger-v1",
+            {},
+            ["--rounds", "2", "--episodes", "50", "--workers", "1"],
+            base="dp-ee-square-grasp-10k",
+        ),
+        Row(
             "bc-ee-square-grasp",
             "bc",
             GRASP,
@@ -326,11 +345,17 @@ def command(row: Row, models: Path) -> str:
             f"slide-gym dagger --env {row.env_id} --policy {base} {' '.join(row.train)} "
             f"--out {out} --dataset-id {row.dataset}"
         )
-        return f"{train}; slide-gym evaluate {out}/round-1/policy --env {row.env_id} {test}"
+        policy = f"{out}/round-{_rounds(row)}/policy"
+        return f"{train}; slide-gym evaluate {policy} --env {row.env_id} {test}"
     if row.base is not None:
         out = models / row.base
     train = f"slide-gym train-dp {row.dataset} --out {out} {' '.join(row.train)}".rstrip()
     return f"{collect}; {train}; slide-gym evaluate {out} --env {row.env_id} {scene} {test}"
+
+
+def _rounds(row: Row) -> int:
+    """The DAgger rounds a row runs (its policy is the last round's)."""
+    return int(row.train[row.train.index("--rounds") + 1]) if "--rounds" in row.train else 2
 
 
 def _collect(row: Row) -> None:
@@ -384,7 +409,7 @@ def run(row: Row, models: Path, out: Path) -> dict[str, Any]:
                 "--dataset-id",
                 str(row.dataset),
             )
-            agent = path / "round-1" / "policy"
+            agent = path / f"round-{_rounds(row)}" / "policy"
             training = json.loads((agent / "policy.json").read_text())
             base_card = json.loads((base / "policy.json").read_text())
             training["base_train_time_s"] = base_card["checkpoint"]["train_time_s"]

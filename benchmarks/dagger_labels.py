@@ -1,13 +1,13 @@
-"""Can DAgger's label expert drive an episode by itself? A diagnostic of the labels.
+"""What DAgger's labels say along one rollout: a diagnostic of the label expert.
 
-`slide-gym dagger` asks a fresh expert (`PlannerAgent`, seeded per chunk) for the labels of
-every chunk of a learner rollout. With ``--expert-share 1`` the expert also acts for every
-chunk, so the rollout shows what those labels do when followed: each fresh expert plans
-anew (another press point) and ramps up from rest, and the arm may hover instead of
-pressing. Prints the rollout's summary and, every 40 steps, the fingertip height above the
-table, the plate's overhang and the label.
+`slide-gym dagger` labels every step of a learner rollout with one expert that keeps its plan
+(:class:`agents.learned.labeler.PlanLabeler`). With ``--expert-share 1`` the expert also acts
+for every chunk (the rollout shows whether its labels, followed, solve the task); with ``0``
+the learner acts throughout and the labels are what the learner is trained toward. Prints
+the rollout's summary (successes, label queries, failures) and, every 40 steps, the fingertip
+height above the table, the plate's overhang and the label.
 
-    OMP_NUM_THREADS=1 python benchmarks/dagger_labels.py POLICY_DIR --seed 40000 --expert-share 1
+    OMP_NUM_THREADS=1 python benchmarks/dagger_labels.py POLICY_DIR --seed 40000 --expert-share 0
 """
 
 from __future__ import annotations

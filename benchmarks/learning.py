@@ -232,6 +232,15 @@ ROWS = {
             {"episodes": 1000, "only_success": True},
         ),
         Row(
+            "dp-ee-square-slide-u3",
+            "dp",
+            SLIDE,
+            {**SQUARE, **EE},
+            "slide-gym/square-slide-ee-u3-v1",
+            {**SQUARE_SLIDE, "planner_params": {"u_star": 0.03}},
+            ["--iterations", "8000", "--val-every", "4000"],
+        ),
+        Row(
             "dp-dagger2-ee-square-slide",
             "dp-dagger",
             SLIDE,
@@ -332,6 +341,7 @@ def command(row: Row, models: Path) -> str:
         return f"slide-gym evaluate {agent} --env {row.env_id} {scene} {test}"
     c = row.collect
     noise = f" --action-noise {c['action_noise']}" if c.get("action_noise") else ""
+    noise += "".join(f" --planner-param {k}={v}" for k, v in c.get("planner_params", {}).items())
     collect = (
         f"slide-gym collect --env {row.env_id} {scene} --episodes {c.get('episodes')} "
         f"--only-success{noise} --dataset-id {row.dataset}"

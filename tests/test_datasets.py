@@ -239,3 +239,16 @@ def test_json_procedural_and_rgbd_collections_replay(minari_root, tmp_path, caps
     image = next(read_episodes(rgbd)).observations["scene_rgb"]
     assert image.dtype == np.uint8 and image.shape[1:] == (128, 128, 3)
     assert not rgbd.storage.metadata["jpeg_encoding"]
+
+
+def test_planner_param_overrides_are_checked_and_kept_in_the_identity():
+    from slide_gym.datasets.config import CollectConfig
+
+    config = CollectConfig(env_id="SlideGym/TopSlide-v0", planner_params={"u_star": 0.03})
+    assert config.agent_kwargs() == {"u_star": 0.03}
+    again = CollectConfig.from_json(config.to_json())
+    assert again == config and again.differences(CollectConfig(env_id=config.env_id))
+    assert "planner_params" not in CollectConfig(env_id=config.env_id).to_json()  # old ids
+    for bad, needle in [({"bogus": 1.0}, "allowed: u_star"), ({"u_star": -1.0}, "positive")]:
+        with pytest.raises(ValueError, match=needle):
+            CollectConfig(env_id=config.env_id, planner_params=bad)

@@ -76,6 +76,7 @@ class PlanLabeler:
                 objects=self.shapes[0],
                 tables=self.shapes[1],
                 control_mode=self.config.control_mode,
+                **self.config.agent_kwargs(),
             )
             self.queries += 1
         elif stale:

@@ -58,6 +58,22 @@ OBS_MODES = ("state", "rgbd", "pointcloud")
 """:data:`slide_gym.envs.observation.OBS_MODES`, without importing the envs for ``--help``."""
 
 
+def _planner_params(items: list[str] | None) -> dict[str, float] | None:
+    """``--planner-param NAME=VALUE`` options as a dict (checked by CollectConfig)."""
+    if not items:
+        return None
+    out: dict[str, float] = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        try:
+            if not sep:
+                raise ValueError
+            out[name.strip()] = float(value)
+        except ValueError:
+            raise ValueError(f"--planner-param takes NAME=NUMBER, got {item!r}") from None
+    return out
+
+
 def _cmd_collect(args: argparse.Namespace) -> int:
     from slide_gym.datasets.collect import collect, failure_report
     from slide_gym.datasets.config import CollectConfig
@@ -78,6 +94,7 @@ def _cmd_collect(args: argparse.Namespace) -> int:
         action_noise=args.action_noise,
         split=args.split,
         randomization=parse_randomization(args.randomization),
+        planner_params=_planner_params(args.planner_param),
     )
     summary = collect(
         config,
@@ -316,6 +333,14 @@ def add_parsers(sub: Any) -> None:
         help="DART: execute the expert's arm actions plus seeded Gaussian noise of this "
         "standard deviation (action units) and store its clean actions as labels "
         "(infos['expert_action'])",
+    )
+    p.add_argument(
+        "--planner-param",
+        action="append",
+        metavar="NAME=VALUE",
+        help="override one of the expert's planner parameters (u_star, centroid_margin, "
+        "press_radius, max_rotation), e.g. u_star=0.03: slides that stop at 3 cm of overhang; "
+        "repeatable",
     )
     add_randomization(p)
     p.set_defaults(func=_cmd_collect)

@@ -38,6 +38,28 @@ def check_dataset_id(dataset_id: str) -> str:
     return dataset_id
 
 
+NUMERIC_PLANNER_PARAMS = ("u_star", "centroid_margin", "press_radius", "max_rotation")
+"""The expert's planner parameters a collection may override (the slide's goal and press)."""
+
+
+def check_planner_params(params: dict[str, Any]) -> dict[str, float]:
+    """``params`` as ``{name: float}``, or a ValueError naming the allowed keys."""
+    if not isinstance(params, dict):
+        raise ValueError(f"planner_params must be a dict of name -> number, got {params!r}")
+    out = {}
+    for name, value in params.items():
+        if name not in NUMERIC_PLANNER_PARAMS:
+            raise ValueError(
+                f"unknown planner parameter {name!r}; allowed: {', '.join(NUMERIC_PLANNER_PARAMS)}"
+            )
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ValueError(f"planner parameter {name} must be a number, got {value!r}")
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(f"planner parameter {name} must be positive and finite, got {value}")
+        out[name] = float(value)
+    return out
+
+
 @dataclass(frozen=True)
 class CollectConfig:
     """The environment and the agent of a dataset.
@@ -62,6 +84,9 @@ class CollectConfig:
         randomization: the env's domain randomisation: None, ``"default"`` or a dict of
             key -> (low, high) or number (stored as key -> [low, high]); each episode's
             drawn values are in its reset options.
+        planner_params: overrides of the expert's planner parameters (names in
+            :data:`NUMERIC_PLANNER_PARAMS`), e.g. ``{"u_star": 0.03}`` for slides that stop
+            at a smaller overhang; None: the expert's own.
     """
 
     env_id: str
@@ -78,6 +103,7 @@ class CollectConfig:
     action_noise: float = 0.0
     split: str | None = None
     randomization: str | dict[str, list[float]] | None = None
+    planner_params: dict[str, float] | None = None
 
     def __post_init__(self) -> None:
         if self.env_id not in DICT_ENV_IDS:
@@ -118,9 +144,15 @@ class CollectConfig:
                     f"split {split.name!r} collects object {split.object!r}, not {self.object!r}"
                 )
             split.first_seed("collect", 1, self.seed)
+        if self.planner_params is not None:
+            object.__setattr__(self, "planner_params", check_planner_params(self.planner_params))
         ranges = parse(self.randomization)
         if self.randomization is not None and self.randomization != DEFAULT:
             object.__setattr__(self, "randomization", to_json(ranges))  # JSON's own form
+
+    def agent_kwargs(self) -> dict[str, Any]:
+        """The expert's planner-parameter overrides (``PlannerAgent(..., **kwargs)``)."""
+        return dict(self.planner_params or {})
 
     def env_kwargs(self) -> dict[str, Any]:
         """The keyword arguments of ``gym.make(env_id, ...)`` (JSON values only)."""
@@ -140,8 +172,9 @@ class CollectConfig:
         for name in ("action_noise", "split"):
             if not data[name]:
                 del data[name]
-        if data["randomization"] is None:
-            del data["randomization"]
+        for name in ("randomization", "planner_params"):
+            if not data[name]:
+                del data[name]
         return data
 
     @classmethod

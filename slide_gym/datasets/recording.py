@@ -187,6 +187,7 @@ def record_episode(config: CollectConfig, seed: int) -> RecordedEpisode:
             objects=[base.task.object],
             tables=[base.task.table],
             control_mode=config.control_mode,
+            **config.agent_kwargs(),
         )
         try:
             record = play_episode(

@@ -271,16 +271,6 @@ ROWS = {
             ["--iterations", "10000", "--val-episodes", "10"],
         ),
         Row(
-            "dp-dagger-ee-square-grasp",
-            "dp-dagger",
-            GRASP,
-            {**SQUARE, **EE},
-            "slide-gym/square-grasp-ee-dagger-v1",
-            {},
-            ["--rounds", "2", "--episodes", "50", "--workers", "1"],
-            base="dp-ee-square-grasp-10k",
-        ),
-        Row(
             "bc-ee-square-grasp",
             "bc",
             GRASP,

@@ -241,6 +241,16 @@ ROWS = {
             ["--iterations", "8000", "--val-every", "4000"],
         ),
         Row(
+            "dp-ee-square-slide-10k-ft",
+            "dp",
+            SLIDE,
+            {**SQUARE, **EE},
+            "slide-gym/square-slide-ee-v1",
+            SQUARE_SLIDE,
+            ["--init", "{models}/dp-ee-square-slide-10k"]
+            + ["--iterations", "5000", "--val-every", "0"],
+        ),
+        Row(
             "dp-dagger2-ee-square-slide",
             "dp-dagger",
             SLIDE,
@@ -349,7 +359,8 @@ def command(row: Row, models: Path) -> str:
         return f"{train}; slide-gym evaluate {policy} --env {row.env_id} {test}"
     if row.base is not None:
         out = models / row.base
-    train = f"slide-gym train-dp {row.dataset} --out {out} {' '.join(row.train)}".rstrip()
+    args = " ".join(a.format(models=models) for a in row.train)
+    train = f"slide-gym train-dp {row.dataset} --out {out} {args}".rstrip()
     return f"{collect}; {train}; slide-gym evaluate {out} --env {row.env_id} {scene} {test}"
 
 
@@ -416,7 +427,8 @@ def run(row: Row, models: Path, out: Path) -> dict[str, Any]:
         else:
             if not (path / "policy.json").exists() or _unfinished(path):
                 resume = ["--resume"] if (path / "checkpoint.pt").exists() else []
-                _cli("train-dp", str(row.dataset), "--out", str(path), *row.train, *resume)
+                args = [a.format(models=models) for a in row.train]
+                _cli("train-dp", str(row.dataset), "--out", str(path), *args, *resume)
             agent = path
             training = json.loads((path / "policy.json").read_text())
     env_kwargs = dict(row.scene)

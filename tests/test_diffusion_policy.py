@@ -297,6 +297,19 @@ def test_evaluate_command_runs_a_policy_folder(trained, capsys):
     assert json.loads(capsys.readouterr().out)["action_horizon"] == 4
 
 
+def test_train_dp_init_starts_from_a_policys_weights(dart, trained, tmp_path, capsys):
+    out = tmp_path / "ft"
+    args = ["train-dp", DATASET, "--out", str(out), "--init", str(trained)]
+    assert main([*args, "--iterations", "1", "--val-episodes", "0", "--log-every", "1"]) == 0
+    capsys.readouterr()
+    assert json.loads((out / "policy.json").read_text())["init"] == str(trained)
+    before = torch.load(trained / "policy.pt", weights_only=False)["state_dict"]
+    after = torch.load(out / "policy.pt", weights_only=False)["state_dict"]
+    # one step from the trained weights moves them a little, not to a fresh network's
+    change = max(float((before[k] - after[k]).abs().max()) for k in before)
+    assert 0 < change < 0.05
+
+
 def test_one_dagger_round_adds_labelled_steps(dart, trained, tmp_path):
     from agents.learned.dagger import DAGGER_SEED, DaggerConfig, run_dagger
 
@@ -334,6 +347,7 @@ def test_one_dagger_round_adds_labelled_steps(dart, trained, tmp_path):
         ),
         (["collect", "--episodes", "1", "--dataset-id", "t/x.y-v0"], "NAMESPACE/NAME-vK"),
         (["dagger", "--policy", "{empty}", "--out", "d", "--dataset-id", "tt/d-v0"], "policy.pt"),
+        (["train-dp", "nobody/nothing-v0", "--out", "dp", "--init", "{empty}"], "policy.pt"),
         (
             [
                 "dagger",

@@ -33,6 +33,16 @@ def _cmd_train_dp(args: argparse.Namespace) -> int:
         val_every=args.val_every,
         val_episodes=args.val_episodes,
     )
+    init = None
+    if args.init is not None:
+        from agents.learned.policy import is_policy_dir
+
+        if not is_policy_dir(args.init):
+            raise ValueError(
+                f"--init {str(args.init)!r} holds no diffusion policy (no policy.pt); give a "
+                "folder written by `slide-gym train-dp`"
+            )
+        init = Path(args.init) / "policy.pt"
     dataset = load(args.dataset_id)
     meta = dataset_metadata(dataset)
     summary = train_diffusion(
@@ -42,9 +52,10 @@ def _cmd_train_dp(args: argparse.Namespace) -> int:
         train=train,
         env_id=dataset.spec.env_spec.id,
         env_kwargs=dict(meta.get("env_kwargs") or {}),
-        card={"dataset_id": args.dataset_id},
+        card={"dataset_id": args.dataset_id, **({"init": str(args.init)} if init else {})},
         resume=args.resume,
         only_success=args.only_success,
+        init=init,
     )
     print(json.dumps({"out": str(args.out), **summary}, indent=2))
     return 0
@@ -149,6 +160,12 @@ def add_parsers(sub: Any) -> None:
     p.add_argument("--val-every", type=int, default=5_000, metavar="N", help="0: at the end only")
     p.add_argument("--val-episodes", type=int, default=20, metavar="N", help="0: never validate")
     p.add_argument("--resume", action="store_true", help="continue the run in DIR")
+    p.add_argument(
+        "--init",
+        metavar="POLICY_DIR",
+        help="start from this trained policy's weights and network (fine-tuning; the "
+        "learning rate schedule starts again)",
+    )
     add_only_success(p, "; DAgger rollouts are kept either way (their labels are the expert's)")
     p.set_defaults(func=_cmd_train_dp)
 

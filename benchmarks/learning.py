@@ -270,6 +270,16 @@ ROWS = {
             ["--rounds", "1", "--episodes", "20", "--workers", "1"],
             base="dp-ee-square-slide-10k",
         ),
+        Row(
+            "dp-dagger4-ee-square-slide",
+            "dp-dagger",
+            SLIDE,
+            {**SQUARE, **EE},
+            "slide-gym/square-slide-ee-dagger-v4",
+            {},
+            ["--rounds", "1", "--episodes", "100", "--workers", "1"],
+            base="dp-ee-square-slide-10k",
+        ),
         Row("expert-ee-square-grasp", "expert", GRASP, {**SQUARE, **EE}),
         Row(
             "dp-ee-square-grasp-10k",

@@ -147,7 +147,7 @@ class SlideGraspExpert:
         self.grasp_seed: np.ndarray | None = None  # the plan's grasp, an IK seed for re-aiming
         self.target: np.ndarray | None = None  # the last action's joint target
         self.object_start: np.ndarray | None = None  # the plate's pose the plan started from
-        self._before: tuple[np.ndarray, float, np.ndarray | None] | None = None  # see follow
+        self._before: tuple[np.ndarray, np.ndarray | None] | None = None  # see follow
         self.report = ExpertReport()
 
     # ------------------------------------------------------------------ act
@@ -184,11 +184,7 @@ class SlideGraspExpert:
     def _action(self, target: np.ndarray, hand: float) -> np.ndarray:
         assert self.q_cmd is not None
         self.target = np.asarray(target, dtype=float)
-        self._before = (
-            self.q_cmd.copy(),
-            self.hand_cmd,
-            None if self.ee is None else self.ee.control.get_state(),
-        )
+        self._before = (self.q_cmd.copy(), None if self.ee is None else self.ee.control.get_state())
         self.hand_cmd = hand
         if self.ee is not None:
             action = self.ee.action(target, hand)
@@ -205,9 +201,9 @@ class SlideGraspExpert:
         controller computed it. The plan and its queue stay; only the command moves."""
         if self._before is None:
             return
-        q_before, hand_before, ee_state = self._before
+        q_before, ee_state = self._before
         a = np.clip(np.asarray(action, dtype=float).reshape(-1), -1.0, 1.0)
-        self.hand_cmd = float((a[-1] + 1.0) / 2.0) if np.isfinite(a[-1]) else hand_before
+        self.hand_cmd = float((a[-1] + 1.0) / 2.0)
         if self.ee is not None:
             assert ee_state is not None
             self.ee.control.set_state(ee_state)

@@ -61,6 +61,23 @@ SQUARE_SLIDE = {"episodes": 200, "only_success": True}
 HORIZON_ROWS = {"dp-ee-square-slide-10k": 2, "dp-ee-catalog-slide": 2}
 """Rows whose trained policy is also tested at another action horizon (chosen on validation
 seeds with ``horizon``): row ``NAME-hK``."""
+
+
+def _ee_square_dagger(name: str, version: int, episodes: int, base: str, workers: int = 1) -> Row:
+    """One DAgger round of ``episodes`` rollouts on the square slide in fingertip steps, from
+    row ``base``'s policy, into dataset ``square-slide-ee-dagger-v{version}``."""
+    return Row(
+        name,
+        "dp-dagger",
+        SLIDE,
+        {**SQUARE, **EE},
+        f"slide-gym/square-slide-ee-dagger-v{version}",
+        {},
+        ["--rounds", "1", "--episodes", str(episodes), "--workers", str(workers)],
+        base=base,
+    )
+
+
 OFFSETS = ["--actions", "offsets"]
 """The chunks of the rows trained before per-step deltas became the default."""
 ROWS = {
@@ -204,16 +221,7 @@ ROWS = {
             SQUARE_SLIDE,
             [*OFFSETS, "--no-features"],
         ),
-        Row(
-            "dp-dagger-ee-square-slide",
-            "dp-dagger",
-            SLIDE,
-            {**SQUARE, **EE},
-            "slide-gym/square-slide-ee-dagger-v1",
-            {},
-            ["--rounds", "1", "--episodes", "16", "--workers", "2"],
-            base="dp-ee-square-slide",
-        ),
+        _ee_square_dagger("dp-dagger-ee-square-slide", 1, 16, "dp-ee-square-slide", workers=2),
         Row(
             "dp-ee-square-slide-10k",
             "dp",
@@ -250,36 +258,9 @@ ROWS = {
             ["--init", "{models}/dp-ee-square-slide-10k"]
             + ["--iterations", "5000", "--val-every", "0"],
         ),
-        Row(
-            "dp-dagger2-ee-square-slide",
-            "dp-dagger",
-            SLIDE,
-            {**SQUARE, **EE},
-            "slide-gym/square-slide-ee-dagger-v2",
-            {},
-            ["--rounds", "1", "--episodes", "20", "--workers", "1"],
-            base="dp-ee-square-slide-10k",
-        ),
-        Row(
-            "dp-dagger3-ee-square-slide",
-            "dp-dagger",
-            SLIDE,
-            {**SQUARE, **EE},
-            "slide-gym/square-slide-ee-dagger-v3",
-            {},
-            ["--rounds", "1", "--episodes", "20", "--workers", "1"],
-            base="dp-ee-square-slide-10k",
-        ),
-        Row(
-            "dp-dagger4-ee-square-slide",
-            "dp-dagger",
-            SLIDE,
-            {**SQUARE, **EE},
-            "slide-gym/square-slide-ee-dagger-v4",
-            {},
-            ["--rounds", "1", "--episodes", "100", "--workers", "1"],
-            base="dp-ee-square-slide-10k",
-        ),
+        _ee_square_dagger("dp-dagger2-ee-square-slide", 2, 20, "dp-ee-square-slide-10k"),
+        _ee_square_dagger("dp-dagger3-ee-square-slide", 3, 20, "dp-ee-square-slide-10k"),
+        _ee_square_dagger("dp-dagger4-ee-square-slide", 4, 100, "dp-ee-square-slide-10k"),
         Row("expert-ee-square-grasp", "expert", GRASP, {**SQUARE, **EE}),
         Row(
             "dp-ee-square-grasp-10k",

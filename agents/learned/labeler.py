@@ -66,7 +66,9 @@ class PlanLabeler:
         ``boundary`` a fresh expert takes over if the learner has left the plan."""
         slot = None if self.agent is None else self.agent.expert(0)
         stale = slot is None or slot.phase == "failed"
-        fresh = boundary and (stale or (slot is not None and slot.off_plan(obs, *self._tols)))
+        fresh = boundary and (
+            stale or (slot is not None and slot.off_plan(obs, self.drift, self.plate_tol))
+        )
         if fresh:
             self.close()
             self.agent = PlannerAgent(
@@ -97,10 +99,6 @@ class PlanLabeler:
         slot = None if self.agent is None else self.agent.expert(0)
         if slot is not None and slot.phase != "failed":
             slot.follow(action)
-
-    @property
-    def _tols(self) -> tuple[float, float]:
-        return self.drift, self.plate_tol
 
     def close(self) -> None:
         if self.agent is not None:

@@ -58,6 +58,16 @@ class Row:
 
 
 SQUARE_SLIDE = {"episodes": 200, "only_success": True}
+SEED_GROUPS = {
+    "dp-square-slide": ["dp-square-slide", "dp-square-slide-seed1", "dp-square-slide-seed2"],
+    "dp-ee-square-slide-10k": [
+        "dp-ee-square-slide-10k",
+        "dp-ee-square-slide-10k-seed1",
+        "dp-ee-square-slide-10k-seed2",
+    ],
+}
+"""Rows that differ only in the training seed (0, 1, 2): ``report`` gives their mean and
+spread once all have run."""
 HORIZON_ROWS = {"dp-ee-square-slide-10k": 2, "dp-ee-catalog-slide": 2}
 """Rows whose trained policy is also tested at another action horizon (chosen on validation
 seeds with ``horizon``): row ``NAME-hK``."""
@@ -230,6 +240,18 @@ ROWS = {
             "slide-gym/square-slide-ee-v1",
             SQUARE_SLIDE,
             ["--iterations", "10000"],
+        ),
+        *(
+            Row(
+                f"dp-ee-square-slide-10k-seed{s}",
+                "dp",
+                SLIDE,
+                {**SQUARE, **EE},
+                "slide-gym/square-slide-ee-v1",
+                SQUARE_SLIDE,
+                ["--iterations", "10000", "--seed", str(s)],
+            )
+            for s in (1, 2)
         ),
         Row(
             "dp-ee-square-slide-1000",
@@ -552,6 +574,9 @@ def report(out: Path) -> Path:
             f"**{100 * r['success_rate']:.0f} %** ({100 * lo:.0f}-{100 * hi:.0f}) | "
             f"{r['mean_length']:.0f} |"
         )
+    spread = _seed_spread(rows)
+    if spread:
+        lines += ["", "Training seeds 0, 1 and 2 (the same data and test episodes):", "", *spread]
     lines += [
         "",
         "Commands that make each row with today's code (and the code version that made it):",
@@ -566,6 +591,22 @@ def report(out: Path) -> Path:
     md.write_text("\n".join(lines) + "\n")
     _plot_curves(out)
     return md
+
+
+def _seed_spread(rows: dict[str, dict[str, Any]]) -> list[str]:
+    """A line per complete seed group: the success rates, their mean and sample deviation."""
+    import numpy as np
+
+    lines = []
+    for group, names in SEED_GROUPS.items():
+        if all(n in rows for n in names):
+            rates = np.array([100 * rows[n]["success_rate"] for n in names])
+            each = ", ".join(f"{r:.0f} %" for r in rates)
+            lines.append(
+                f"- {group}: {each}; mean **{rates.mean():.0f} %**, "
+                f"standard deviation {rates.std(ddof=1):.1f} points"
+            )
+    return lines
 
 
 def _plot_curves(out: Path) -> None:

@@ -31,7 +31,7 @@ class EEActions:
 
     def __init__(self, max_joint_step: float, max_tip_step: float, max_rot_step: float):
         self.control = EEDeltaControl(max_joint_step, max_tip_step, max_rot_step)
-        self.last: tuple[np.ndarray, float] | None = None  # the last target and hand command
+        self.last: tuple[np.ndarray, float, float] | None = None  # target, hand, limit
         self.behind = False  # the last action fell short of its target's pose
         self._held = 0
 
@@ -53,20 +53,33 @@ class EEActions:
         """The controller's joint targets (a copy)."""
         return self.control.target.copy()
 
-    def action(self, target_q: np.ndarray, hand: float) -> np.ndarray:
+    def action(self, target_q: np.ndarray, hand: float, limit: float = 1.0) -> np.ndarray:
         """The action (7,) moving the target pose toward ``target_q``'s fingertip pose, with
-        hand command ``hand`` in [0, 1]; the mirror controller applies it."""
+        hand command ``hand`` in [0, 1]; the mirror controller applies it. ``limit`` (at most
+        1) caps the action's largest arm entry (a re-timed plan's speed)."""
         c = self.control
-        want = c.chain.forward(np.clip(target_q, ARM_LOWER, ARM_UPPER))
-        have = c.target_pose
-        move = np.r_[
-            (want[:3, 3] - have[:3, 3]) / c.max_tip_step,
-            rotation_vector(want[:3, :3] @ have[:3, :3].T) / c.max_rot_step,
-        ]
+        move = _pose_move(
+            c.chain.forward(np.clip(target_q, ARM_LOWER, ARM_UPPER)), c.target_pose, c
+        )
         scale = float(np.abs(move).max())
-        self.behind = scale > 1.0
-        move /= max(1.0, scale)
-        self.last = (np.array(target_q, dtype=float), float(hand))
+        self.behind = scale > limit
+        move /= max(1.0, scale / limit)
+        self.last = (np.array(target_q, dtype=float), float(hand), float(limit))
         action = np.r_[move, 2.0 * hand - 1.0].astype(np.float32)
         c.apply(action)
         return action
+
+    def step_size(self, q_from: np.ndarray, q_to: np.ndarray) -> float:
+        """The largest arm entry of the action that moves the fingertip pose of ``q_from`` to
+        that of ``q_to`` (a plan's speed between two consecutive targets, in action units)."""
+        c = self.control
+        poses = c.chain.forward(np.clip(np.stack([q_to, q_from]), ARM_LOWER, ARM_UPPER))
+        return float(np.abs(_pose_move(poses[0], poses[1], c)).max())
+
+
+def _pose_move(want: np.ndarray, have: np.ndarray, c: EEDeltaControl) -> np.ndarray:
+    """The unscaled action (6,) that moves pose ``have`` (4x4) to ``want``."""
+    return np.r_[
+        (want[:3, 3] - have[:3, 3]) / c.max_tip_step,
+        rotation_vector(want[:3, :3] @ have[:3, :3].T) / c.max_rot_step,
+    ]

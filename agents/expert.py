@@ -35,6 +35,7 @@ holds still, and :func:`agents.episode.play_episode` ends the episode).
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import time
 from collections import deque
 from dataclasses import dataclass
@@ -79,6 +80,11 @@ from slide_gym.robot.model import ARM_LOWER, ARM_UPPER, READY_ARM_Q
 LOW_TIP_HEIGHT = 0.03
 """m: a fingertip this close above the table top (pressing the plate, or low beside it) when
 the expert takes over rises first: from there every route would start in collision."""
+RETIME_MIN_STEP = 0.1
+"""Action units: a re-timed plan's actions may always move this fast (a learner off a plan
+that holds still is led back at this pace)."""
+RETIME_WINDOW = 20
+"""Queued targets a re-timed plan looks ahead for ones the learner has already passed."""
 HELD_HEIGHT = 0.01
 """m: a plate whose bottom is this far above the table top, with the hand closed, is in the
 hand when the expert takes over (it lifts and holds)."""
@@ -148,6 +154,8 @@ class SlideGraspExpert:
         self.target: np.ndarray | None = None  # the last action's joint target
         self.object_start: np.ndarray | None = None  # the plate's pose the plan started from
         self._before: tuple[np.ndarray, np.ndarray | None] | None = None  # see follow
+        self.retimed = False  # a learner acts: the plan follows its progress (see follow)
+        self._plan_q: np.ndarray | None = None  # the plan's last target taken (no corrections)
         self.report = ExpertReport()
 
     # ------------------------------------------------------------------ act
@@ -160,7 +168,8 @@ class SlideGraspExpert:
             self.obj = self.library.object_from(obs["object_outline"])
             self.table = self.library.table_from(obs["table_outline"], obs["table_height"][0])
             self._slide_params()  # this plate's margins and grasp threshold
-        if self.ee is not None and self.ee.hold():  # the pose lags the last target: wait
+        ahead = self.retimed and self._skip_passed()
+        if not ahead and self.ee is not None and self.ee.hold():  # the pose lags: wait
             assert self.ee.last is not None
             self._steps += 1
             return self._action(*self.ee.last)
@@ -170,6 +179,10 @@ class SlideGraspExpert:
             self._steps += 1
             return self._action(self.q_cmd, self.hand_cmd)
         step = self.queue.popleft()
+        limit = 1.0
+        if self.retimed and self._plan_q is not None:
+            limit = min(1.0, max(RETIME_MIN_STEP, self._step_size(self._plan_q, step.q)))
+        self._plan_q = step.q
         if step.phase != self.phase or not self.report.phase_steps:
             self.report.phase_steps.append((step.phase, self._steps))
         self.phase = step.phase
@@ -179,26 +192,37 @@ class SlideGraspExpert:
         else:  # untracked legs start from the command, corrections included
             self.tracker.reset()
             target = step.q
-        return self._action(target, step.hand)
+        return self._action(target, step.hand, limit)
 
-    def _action(self, target: np.ndarray, hand: float) -> np.ndarray:
+    def _action(self, target: np.ndarray, hand: float, limit: float = 1.0) -> np.ndarray:
         assert self.q_cmd is not None
         self.target = np.asarray(target, dtype=float)
         self._before = (self.q_cmd.copy(), None if self.ee is None else self.ee.control.get_state())
         self.hand_cmd = hand
         if self.ee is not None:
-            action = self.ee.action(target, hand)
+            action = self.ee.action(target, hand, limit)
             self.q_cmd = self.ee.q_cmd
             return action
         target = np.clip(target, ARM_LOWER, ARM_UPPER)
-        delta = np.clip((target - self.q_cmd) / self.max_joint_step, -1.0, 1.0)
+        delta = (target - self.q_cmd) / self.max_joint_step
+        if limit < 1.0:  # re-timed: shrunk as a whole to the plan's pace
+            delta *= min(1.0, limit / max(float(np.abs(delta).max()), 1e-12))
+        delta = np.clip(delta, -1.0, 1.0)
         self.q_cmd = np.clip(self.q_cmd + self.max_joint_step * delta, ARM_LOWER, ARM_UPPER)
         return np.r_[delta, 2.0 * hand - 1.0].astype(np.float32)
 
     def follow(self, action: np.ndarray) -> None:
         """The environment executed ``action`` instead of this expert's last one (a learner
         acted): carry on from the command that ``action`` gives, as the environment's
-        controller computed it. The plan and its queue stay; only the command moves."""
+        controller computed it. The plan and its queue stay; only the command moves.
+
+        From then on the plan is re-timed to the learner's progress (:attr:`retimed`): no
+        action moves faster than the plan does at that point (at least
+        ``RETIME_MIN_STEP``), a lagging command holds the plan (in ``ee_delta`` mode), and
+        targets the command has already passed are dropped. A label then shows the learner
+        how to go on from where it is at the plan's pace, not how to catch up with the
+        plan's clock at full speed."""
+        self.retimed = True
         if self._before is None:
             return
         q_before, ee_state = self._before
@@ -227,6 +251,30 @@ class SlideGraspExpert:
             return bool(np.linalg.norm(moved) > plate_tol)
         tips = self.tip.forward(np.stack([self.q_cmd, self.target]))[:, :3, 3]
         return bool(np.linalg.norm(tips[0] - tips[1]) > drift)
+
+    def _step_size(self, q_from: np.ndarray, q_to: np.ndarray) -> float:
+        """The plan's speed between two consecutive targets, in action units."""
+        if self.ee is not None:
+            return self.ee.step_size(q_from, q_to)
+        return float(np.abs(q_to - q_from).max() / self.max_joint_step)
+
+    def _skip_passed(self) -> bool:
+        """Drop the queued targets of the current leg that the commanded fingertip has passed
+        (it is nearer to a later one than to the current target); True if any were."""
+        if self.q_cmd is None or self.target is None or not self.queue:
+            return False
+        leg = []
+        for step in itertools.islice(self.queue, RETIME_WINDOW):
+            if step.phase != self.phase:
+                break
+            leg.append(step.q)
+        if not leg:
+            return False
+        tips = self.tip.forward(np.stack([self.q_cmd, self.target, *leg]))[:, :3, 3]
+        nearest = int(np.argmin(np.linalg.norm(tips[1:] - tips[0], axis=1)))
+        for _ in range(nearest):  # 0: the current target is the nearest
+            self._plan_q = self.queue.popleft().q
+        return nearest > 0
 
     # --------------------------------------------------------------- stages
     def _advance(self, obs: dict[str, np.ndarray]) -> None:

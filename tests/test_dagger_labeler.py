@@ -58,3 +58,39 @@ def test_a_plate_moved_during_the_approach_gets_a_fresh_expert(scene):
     assert labeler.queries == 1
     labeler.label(moved, 8, True)
     assert labeler.queries == 2 and labeler.agent.expert(0) is not expert
+
+
+def _labels_of_a_halted_learner(env, obs, labeler) -> list[np.ndarray]:
+    """The expert acts until 10 steps into its slide, then the learner holds the arm still
+    for 30 steps; the labels of those steps."""
+    t, slid, labels = 0, 0, []
+    while len(labels) < 30:
+        label = labeler.label(obs, t, t == 0)  # one expert: the halt must not replace it
+        assert label is not None
+        expert = labeler.agent.expert(0)
+        slid += expert.phase == "slide"
+        if slid > 10:
+            labels.append(label)
+            action = np.r_[np.zeros(6), label[-1]].astype(np.float32)
+        else:
+            action = label
+        labeler.executed(action)
+        obs, *_ = env.step(action)
+        t += 1
+        assert t < 400, "the expert never slid"
+    return labels
+
+
+def test_labels_for_a_lagging_learner_keep_the_plans_pace(scene):
+    env, obs, labeler = scene
+    labels = _labels_of_a_halted_learner(env, obs, labeler)
+    largest = np.abs(np.stack(labels)[:, :-1]).max(axis=1)
+    # the slide's own pace is 5 cm/s: 0.25 of the 1 cm step (tracking corrections on top)
+    assert largest.max() < 0.35 and np.median(largest) > 0.1  # it still says "go on"
+
+
+def test_labels_on_the_plans_clock_catch_up_at_full_speed(scene):
+    env, obs, labeler = scene
+    labeler.retime = False
+    labels = _labels_of_a_halted_learner(env, obs, labeler)
+    assert np.abs(np.stack(labels)[-1][:-1]).max() > 0.99  # what re-timing prevents

@@ -3,7 +3,11 @@
 The expert plans once from the episode's first state. At every step it gives the action it
 would take from the command the environment holds (the label), then follows the action that
 was actually executed (:meth:`agents.expert.SlideGraspExpert.follow`), so its next label
-starts from the true command and still heads for the same plan. At a chunk boundary a fresh
+starts from the true command and still heads for the same plan, re-timed to the learner's
+progress: a label never moves faster than the plan does at that point, so a learner that lags
+is told to go on at the plan's pace rather than to catch up with its clock (which, before
+re-timing, made 36 % of the labels full-speed steps against 8 % of the demonstrations'
+actions). At a chunk boundary a fresh
 expert takes over from the current state (:mod:`agents.takeover`; seeded from the episode
 seed and the step) when the learner has left the plan (the plate moved during the approach,
 or from the press on the commanded fingertip is more than ``drift`` from the plan's) or the
@@ -41,6 +45,8 @@ class PlanLabeler:
         seed: the episode's reset seed.
         budget: planning seconds per expert (a takeover gets a fresh budget).
         obj, table: the episode's shapes (the expert recognises the scene by them).
+        retime: re-time the plan to the learner's progress (False: keep the plan's clock, as
+            before re-timing; for comparisons).
     """
 
     def __init__(
@@ -53,10 +59,12 @@ class PlanLabeler:
         *,
         drift: float = DRIFT_M,
         plate_tol: float = PLATE_TOL_M,
+        retime: bool = True,
     ):
         self.config, self.seed, self.budget = config, int(seed), float(budget)
         self.shapes = ([obj], [table])
         self.drift, self.plate_tol = float(drift), float(plate_tol)
+        self.retime = retime
         self.agent: PlannerAgent | None = None
         self.queries = self.failures = 0
         self.reasons: dict[str, int] = {}
@@ -99,6 +107,7 @@ class PlanLabeler:
         slot = None if self.agent is None else self.agent.expert(0)
         if slot is not None and slot.phase != "failed":
             slot.follow(action)
+            slot.retimed = self.retime
 
     def close(self) -> None:
         if self.agent is not None:

@@ -283,6 +283,7 @@ ROWS = {
         _ee_square_dagger("dp-dagger2-ee-square-slide", 2, 20, "dp-ee-square-slide-10k"),
         _ee_square_dagger("dp-dagger3-ee-square-slide", 3, 20, "dp-ee-square-slide-10k"),
         _ee_square_dagger("dp-dagger4-ee-square-slide", 4, 100, "dp-ee-square-slide-10k"),
+        _ee_square_dagger("dp-dagger5-ee-square-slide", 5, 100, "dp-ee-square-slide-10k"),
         Row("expert-ee-square-grasp", "expert", GRASP, {**SQUARE, **EE}),
         Row(
             "dp-ee-square-grasp-10k",

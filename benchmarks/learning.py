@@ -254,6 +254,15 @@ ROWS = {
             for s in (1, 2)
         ),
         Row(
+            "dp-ee-square-slide-wide",
+            "dp",
+            SLIDE,
+            {**SQUARE, **EE},
+            "slide-gym/square-slide-ee-v1",
+            SQUARE_SLIDE,
+            ["--channels", "64", "128", "256", "--iterations", "10000"],
+        ),
+        Row(
             "dp-ee-square-slide-1000",
             "dp",
             SLIDE,

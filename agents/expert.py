@@ -95,6 +95,24 @@ APPROACH_RAISES = (0.15, 0.25, 0.35)
 route is free (when the direct move is not), before a planned route is tried."""
 
 
+PHASES = (
+    "plan",
+    "approach",
+    "press",
+    "slide",
+    "pull_back",
+    "release",
+    "lift_off",
+    "transfer",
+    "approach_grasp",
+    "close",
+    "lift",
+    "done",
+    "failed",
+)
+"""The values :attr:`SlideGraspExpert.phase` takes (see the module docstring)."""
+
+
 @dataclass
 class _Step:
     q: np.ndarray

@@ -73,9 +73,12 @@ HORIZON_ROWS = {"dp-ee-square-slide-10k": 2, "dp-ee-catalog-slide": 2}
 seeds with ``horizon``): row ``NAME-hK``."""
 
 
-def _ee_square_dagger(name: str, version: int, episodes: int, base: str, workers: int = 1) -> Row:
+def _ee_square_dagger(
+    name: str, version: int, episodes: int, base: str, workers: int = 1, extra: tuple = ()
+) -> Row:
     """One DAgger round of ``episodes`` rollouts on the square slide in fingertip steps, from
-    row ``base``'s policy, into dataset ``square-slide-ee-dagger-v{version}``."""
+    row ``base``'s policy, into dataset ``square-slide-ee-dagger-v{version}`` (``extra``:
+    further ``dagger`` arguments)."""
     return Row(
         name,
         "dp-dagger",
@@ -83,7 +86,7 @@ def _ee_square_dagger(name: str, version: int, episodes: int, base: str, workers
         {**SQUARE, **EE},
         f"slide-gym/square-slide-ee-dagger-v{version}",
         {},
-        ["--rounds", "1", "--episodes", str(episodes), "--workers", str(workers)],
+        ["--rounds", "1", "--episodes", str(episodes), "--workers", str(workers), *extra],
         base=base,
     )
 
@@ -293,6 +296,13 @@ ROWS = {
         _ee_square_dagger("dp-dagger3-ee-square-slide", 3, 20, "dp-ee-square-slide-10k"),
         _ee_square_dagger("dp-dagger4-ee-square-slide", 4, 100, "dp-ee-square-slide-10k"),
         _ee_square_dagger("dp-dagger5-ee-square-slide", 5, 100, "dp-ee-square-slide-10k"),
+        _ee_square_dagger(
+            "dp-dagger6-ee-square-slide",
+            6,
+            100,
+            "dp-ee-square-slide-10k",
+            extra=("--skip-phases", "release"),
+        ),
         Row("expert-ee-square-grasp", "expert", GRASP, {**SQUARE, **EE}),
         Row(
             "dp-ee-square-grasp-10k",

@@ -94,3 +94,14 @@ def test_labels_on_the_plans_clock_catch_up_at_full_speed(scene):
     labeler.retime = False
     labels = _labels_of_a_halted_learner(env, obs, labeler)
     assert np.abs(np.stack(labels)[-1][:-1]).max() > 0.99  # what re-timing prevents
+
+
+def test_labels_of_a_skipped_phase_are_given_but_withheld(scene):
+    env, obs, labeler = scene
+    labeler.skip_phases = frozenset({"approach"})
+    label = labeler.label(obs, 0, True)
+    assert label is not None and labeler.agent.expert(0).phase == "approach"
+    assert labeler.withheld
+    labeler.skip_phases = frozenset({"release"})
+    labeler.label(obs, 1, False)
+    assert not labeler.withheld

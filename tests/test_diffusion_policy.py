@@ -349,6 +349,11 @@ def test_one_dagger_round_adds_labelled_steps(dart, trained, tmp_path):
         (["dagger", "--policy", "{empty}", "--out", "d", "--dataset-id", "tt/d-v0"], "policy.pt"),
         (["train-dp", "nobody/nothing-v0", "--out", "dp", "--init", "{empty}"], "policy.pt"),
         (
+            ["dagger", "--policy", "{empty}", "--skip-phases", "releese", "--out", "d"]
+            + ["--dataset-id", "tt/d-v0"],
+            "unknown expert phase(s) releese; allowed: plan, approach",
+        ),
+        (
             [
                 "dagger",
                 "--policy",

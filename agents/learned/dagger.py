@@ -7,7 +7,9 @@ one expert per episode keeps its plan and follows the executed actions, and a fr
 over (from any state) only at a chunk boundary (each ``action_horizon`` steps) where the
 learner has left the plan. With probability ``beta * decay ** (r - 1)`` (seeded) the
 expert's actions are the ones executed for a chunk; otherwise the learner's are. Labels of
-an expert whose plan failed are dropped (NaN, which the trainer skips) and counted.
+an expert whose plan failed are dropped (NaN, which the trainer skips) and counted, as are
+labels given in one of ``skip_phases`` (e.g. ``release``: the expert raising a fingertip the
+learner put where its plan cannot go on, a motion no demonstration shows).
 
 Each episode is kept like a collected one (executed actions, so a reset with its seed and
 options replays it exactly; the labels in ``infos["expert_action"]``; ``dagger_round`` in
@@ -28,6 +30,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from agents.expert import PHASES
 from agents.learned.labeler import PlanLabeler
 from agents.learned.policy import DiffusionPolicy, is_policy_dir
 from slide_gym.datasets.config import CollectConfig, check_dataset_id
@@ -54,6 +57,8 @@ class DaggerConfig:
         iterations: training iterations per round (warm-started from the last weights).
         seed: the learner's sampling noise and the expert-share draws.
         max_steps: cut learner episodes after this many steps (None: the env's time limit).
+        skip_phases: expert phases (:data:`agents.expert.PHASES`) whose labels are withheld
+            (NaN; the expert still acts in them when it executes a chunk).
     """
 
     rounds: int = 2
@@ -64,8 +69,15 @@ class DaggerConfig:
     iterations: int = 5_000
     seed: int = 0
     max_steps: int | None = None
+    skip_phases: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
+        unknown = sorted(set(self.skip_phases) - set(PHASES))
+        if unknown:
+            raise ValueError(
+                f"--skip-phases: unknown expert phase(s) {', '.join(unknown)}; "
+                f"allowed: {', '.join(PHASES)}"
+            )
         if self.max_steps is not None and (
             isinstance(self.max_steps, bool)
             or not isinstance(self.max_steps, int)
@@ -97,13 +109,20 @@ def rollout_case(case: dict[str, Any]) -> dict[str, Any]:
     env = gym.make(config.env_id, **config.env_kwargs())
     base = env.unwrapped
     observations, infos, steps, labels = [], [], [], []
-    expert_chunks = 0
+    expert_chunks = withheld = 0
     labeler: PlanLabeler | None = None
     wall = time.perf_counter()
     try:
         obs, info = env.reset(seed=seed)
         options = reset_options(env, config)
-        labeler = PlanLabeler(config, seed, case["label_budget"], base.task.object, base.task.table)
+        labeler = PlanLabeler(
+            config,
+            seed,
+            case["label_budget"],
+            base.task.object,
+            base.task.table,
+            skip_phases=tuple(case.get("skip_phases", ())),
+        )
         observations.append(obs)
         infos.append(step_info(info, base.get_state()))
         t, done, expert_acts = 0, False, False
@@ -116,7 +135,9 @@ def rollout_case(case: dict[str, Any]) -> dict[str, Any]:
             action = label if expert_acts and label is not None else learner
             expert_chunks += boundary and expert_acts and label is not None
             labeler.executed(action)
-            labels.append(np.full_like(learner, np.nan) if label is None else label)
+            withheld += label is not None and labeler.withheld
+            keep = label is not None and not labeler.withheld
+            labels.append(label if keep else np.full_like(learner, np.nan))
             obs, reward, term, trunc, info = env.step(action)
             steps.append((np.asarray(action, np.float32), float(reward), term, trunc))
             observations.append(obs)
@@ -139,6 +160,7 @@ def rollout_case(case: dict[str, Any]) -> dict[str, Any]:
         "label_queries": queries,
         "label_failures": failures,
         "label_failure_reasons": reasons,
+        "labels_withheld": withheld,
         "expert_chunks": expert_chunks,
         "steps": len(actions),
         "wall_time_s": time.perf_counter() - wall,
@@ -220,6 +242,7 @@ def run_dagger(
                 "label_budget": float(config.label_budget),
                 "dagger_seed": config.seed,
                 "max_steps": config.max_steps,
+                **({"skip_phases": list(config.skip_phases)} if config.skip_phases else {}),
             }
             for s in range(first, first + config.episodes)
         ]
@@ -289,6 +312,7 @@ def run_dagger(
                 "learner_successes": sum(bool(x["success"]) for x in results),
                 "label_queries": queries,
                 "label_failures": sum(int(x["label_failures"]) for x in results),
+                "labels_withheld": sum(int(x.get("labels_withheld", 0)) for x in results),
                 "labelled_steps": sum(int(x["steps"]) for x in results),
                 "dataset_episodes": len(episodes),
                 "validation": summary.get("checkpoint"),

@@ -47,6 +47,9 @@ class PlanLabeler:
         obj, table: the episode's shapes (the expert recognises the scene by them).
         retime: re-time the plan to the learner's progress (False: keep the plan's clock, as
             before re-timing; for comparisons).
+        skip_phases: expert phases whose labels are withheld (:meth:`label` still gives them,
+            :attr:`withheld` says so): e.g. ``("release",)``, where the expert raises a
+            fingertip the learner put somewhere the plan cannot continue from.
     """
 
     def __init__(
@@ -60,11 +63,15 @@ class PlanLabeler:
         drift: float = DRIFT_M,
         plate_tol: float = PLATE_TOL_M,
         retime: bool = True,
+        skip_phases: tuple[str, ...] = (),
     ):
         self.config, self.seed, self.budget = config, int(seed), float(budget)
         self.shapes = ([obj], [table])
         self.drift, self.plate_tol = float(drift), float(plate_tol)
         self.retime = retime
+        self.skip_phases = frozenset(skip_phases)
+        self.withheld = False
+        """Whether the last label came from a phase in ``skip_phases``."""
         self.agent: PlannerAgent | None = None
         self.queries = self.failures = 0
         self.reasons: dict[str, int] = {}
@@ -90,11 +97,13 @@ class PlanLabeler:
             )
             self.queries += 1
         elif stale:
+            self.withheld = False
             return None
         assert self.agent is not None
         action, _ = self.agent.predict(obs, episode_start=np.array([fresh]))
         slot = self.agent.expert(0)
         assert slot is not None
+        self.withheld = slot.phase in self.skip_phases
         if slot.phase == "failed":
             self.failures += 1
             why = str(slot.report.gave_up).split(":")[0]

@@ -73,6 +73,7 @@ def _cmd_dagger(args: argparse.Namespace) -> int:
         iterations=args.iterations,
         seed=args.seed,
         max_steps=args.max_steps,
+        skip_phases=tuple(args.skip_phases),
     )
     if args.env is not None:
         from agents.learned.policy import CARD_FILE, is_policy_dir
@@ -204,6 +205,13 @@ def add_parsers(sub: Any) -> None:
     )
     p.add_argument("--seed", type=int, default=0, metavar="N", help="learner noise, expert draws")
     p.add_argument("--max-steps", type=int, metavar="N", help="cut learner episodes at N steps")
+    p.add_argument(
+        "--skip-phases",
+        nargs="+",
+        default=[],
+        metavar="PHASE",
+        help="withhold the labels the expert gives in these phases (e.g. release)",
+    )
     p.add_argument("--workers", type=int, metavar="W", help="parallel episodes (default: cores)")
     add_backend(p)
     p.set_defaults(func=_cmd_dagger)

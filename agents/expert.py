@@ -334,8 +334,8 @@ class SlideGraspExpert:
         assert self.obj is not None
         strict = plate_slide_params(self.slide_params, self.params, self.obj.circumradius)
         self.centroid_margin = strict.centroid_margin
-        self.grasp_u_star = plate_grasp_u_star(self.params, strict)
         self.small_plate = is_small_plate(self.slide_params, self.params, self.obj.circumradius)
+        self.grasp_u_star = plate_grasp_u_star(self.params, strict, self.small_plate)
         return [("strict", strict), ("relaxed", relaxed_slide_params(strict))]
 
     def _budget_left(self) -> float:

@@ -155,13 +155,16 @@ def is_small_plate(sp: SlideParams, p: ExpertParams, circumradius: float) -> boo
     return circumradius - 0.003 < p.grasp_u_star + 0.002 + sp.centroid_margin
 
 
-def plate_grasp_u_star(p: ExpertParams, planned: SlideParams) -> float:
+def plate_grasp_u_star(p: ExpertParams, planned: SlideParams, small: bool = False) -> float:
     """The least real overhang (m) at which the expert grasps a plate planned with
-    ``planned`` (:func:`plate_slide_params`): ``p.grasp_u_star``, or for a plate too small to
-    be planned 2 mm beyond it, 2 mm below the planned overhang but not below
-    ``p.pinch_u_star`` (the least overhang of a half-scale circle and square corner the T42
-    pinched and lifted in physics; 1.25 cm and, in 2 of 3 placements, 1.5 cm slipped)."""
-    return min(p.grasp_u_star, max(p.pinch_u_star, planned.u_star - 0.002))
+    ``planned`` (:func:`plate_slide_params`): ``p.grasp_u_star``; for a ``small`` plate
+    (:func:`is_small_plate`) ``p.pinch_u_star``, the least overhang of a half-scale circle and
+    square corner the T42 pinched and lifted in physics (1.25 cm and, in 2 of 3 placements,
+    1.5 cm slipped). A small plate's slide is planned to more (2 mm or more above
+    ``p.pinch_u_star``, more where it has room) and lands a few millimetres short of plan
+    as often as past it; a plate that lands between the two thresholds is grasped rather than
+    slid again."""
+    return min(p.grasp_u_star, p.pinch_u_star) if small else p.grasp_u_star
 
 
 def relaxed_slide_params(params: SlideParams) -> SlideParams:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -30,7 +32,8 @@ def test_small_plates_plan_less_overhang_in_a_narrower_goal_band(radius: float) 
     sp = plate_slide_params(EXPERT_SLIDE_PARAMS, ExpertParams(), circumradius=radius)
     p = ExpertParams()
     assert p.pinch_u_star + 0.002 <= sp.u_star < EXPERT_SLIDE_PARAMS.u_star
-    assert p.pinch_u_star <= plate_grasp_u_star(p, sp) <= min(p.grasp_u_star, sp.u_star)
+    small = is_small_plate(EXPERT_SLIDE_PARAMS, p, radius)
+    assert p.pinch_u_star <= plate_grasp_u_star(p, sp, small) <= min(p.grasp_u_star, sp.u_star)
     assert sp.u_star + sp.centroid_margin <= radius
     assert sp.tip_edge_margin + 0.01 <= sp.goal_band_width < EXPERT_SLIDE_PARAMS.goal_band_width
 
@@ -52,7 +55,19 @@ def test_a_half_scale_circle_is_planned_below_u_star_and_grasped_from_the_measur
     p = ExpertParams()
     sp = plate_slide_params(EXPERT_SLIDE_PARAMS, p, circumradius=0.025)
     assert sp.u_star < MIN_CONTACT_SIZE and sp.u_star + sp.centroid_margin <= 0.025
-    assert plate_grasp_u_star(p, sp) == pytest.approx(p.pinch_u_star)
+    assert plate_grasp_u_star(p, sp, small=True) == pytest.approx(p.pinch_u_star)
+
+
+@pytest.mark.parametrize("planned", [0.021, 0.024])
+def test_small_plates_are_grasped_from_the_measured_pinch_whatever_their_plan(
+    planned: float,
+) -> None:
+    """A half-scale plate planned to 2.4 cm that lands 3 mm short is grasped, not slid again."""
+    p = ExpertParams()
+    sp = plate_slide_params(EXPERT_SLIDE_PARAMS, p, circumradius=0.033)
+    sp = dataclasses.replace(sp, u_star=planned)
+    assert plate_grasp_u_star(p, sp, small=True) == pytest.approx(p.pinch_u_star)
+    assert plate_grasp_u_star(p, sp) == p.grasp_u_star
 
 
 def test_ramped_legs_start_and_stop_gently_and_arrive() -> None:

@@ -65,6 +65,11 @@ SEED_GROUPS = {
         "dp-ee-square-slide-10k-seed1",
         "dp-ee-square-slide-10k-seed2",
     ],
+    "dp-ee-square-slide-wide": [
+        "dp-ee-square-slide-wide",
+        "dp-ee-square-slide-wide-seed1",
+        "dp-ee-square-slide-wide-seed2",
+    ],
 }
 """Rows that differ only in the training seed (0, 1, 2): ``report`` gives their mean and
 spread once all have run."""
@@ -256,14 +261,18 @@ ROWS = {
             )
             for s in (1, 2)
         ),
-        Row(
-            "dp-ee-square-slide-wide",
-            "dp",
-            SLIDE,
-            {**SQUARE, **EE},
-            "slide-gym/square-slide-ee-v1",
-            SQUARE_SLIDE,
-            ["--channels", "64", "128", "256", "--iterations", "10000"],
+        *(
+            Row(
+                "dp-ee-square-slide-wide" + (f"-seed{s}" if s else ""),
+                "dp",
+                SLIDE,
+                {**SQUARE, **EE},
+                "slide-gym/square-slide-ee-v1",
+                SQUARE_SLIDE,
+                ["--channels", "64", "128", "256", "--iterations", "10000"]
+                + (["--seed", str(s)] if s else []),
+            )
+            for s in (0, 1, 2)
         ),
         Row(
             "dp-ee-square-slide-1000",

@@ -8,7 +8,13 @@ import numpy as np
 import pytest
 import shapely
 
-from slide_gym.geometry import get_table, overhang, transform_polygon, wrap_angle
+from slide_gym.geometry import (
+    get_table,
+    overhang,
+    transform_points,
+    transform_polygon,
+    wrap_angle,
+)
 from slide_gym.planning.api import SlideParams, TopSlidePlanner, TopSlideProblem, goal_band
 from slide_gym.planning.plate_goals import PlateGoalPoses
 from slide_gym.task import scene_object
@@ -54,6 +60,32 @@ def test_goal_poses_respect_the_rotation_limit_and_are_deterministic():
     assert len(got) >= 20
     assert all(abs(wrap_angle(p[2] - 0.5)) <= 0.3 + 1e-9 for p in got)
     assert any(not np.array_equal(p, q) for p, q in zip(got[:-1], got[1:], strict=True))
+
+
+def test_goal_poses_keep_the_start_contact_inside_the_edge():
+    """A contact on the plate's outer half would lie past the edge for most directions: the
+    draw keeps it ``contact_margin`` inside (where the fingertip may press)."""
+    plate = scene_object("circle", TABLE, scale=0.5).polygon
+    band = goal_band(TABLE.polygon, 0.05, TABLE.height + 0.001)
+    margin = 0.01
+    sampler = PlateGoalPoses(plate, TABLE.polygon, band, 0.0195, 0.005, contact_margin=margin)
+    contact = np.array([0.012, 0.004])
+    got = [p for p in draws(sampler, 0, 100, contact=contact) if p is not None]
+    assert len(got) >= 80
+    for pose in got:
+        (point,) = transform_points(contact[None], *pose)
+        assert TABLE.polygon.contains(shapely.Point(point))
+        assert TABLE.polygon.exterior.distance(shapely.Point(point)) >= margin - 1e-9
+        assert overhang(transform_polygon(plate, *pose), TABLE.polygon).u >= 0.0195
+    # without the contact, many draws put it past the edge or within the margin
+    free = [p for p in draws(sampler, 0, 100) if p is not None]
+    near = [
+        TABLE.polygon.exterior.distance(shapely.Point(transform_points(contact[None], *p)[0]))
+        < margin
+        or not TABLE.polygon.contains(shapely.Point(transform_points(contact[None], *p)[0]))
+        for p in free
+    ]
+    assert sum(near) >= 0.3 * len(free)
 
 
 def test_a_plate_that_cannot_reach_u_star_past_its_centroid_gets_no_goal_pose():

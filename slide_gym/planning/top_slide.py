@@ -140,6 +140,7 @@ class TopSlidePlanner(Planner):
                 problem.goal_band,
                 p.u_star,
                 p.centroid_margin,
+                p.tip_edge_margin,
             )
             start, turn = problem.start_pose, p.max_rotation
             self.goal_region = PlateGoalRegion(poses, self.start_region, start, turn, *args)

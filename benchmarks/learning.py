@@ -96,6 +96,24 @@ def _ee_square_dagger(
     )
 
 
+def _ee_square_seeds(name: str, train: list[str]) -> list[Row]:
+    """Diffusion-policy rows on the square slide demonstrations in fingertip steps, trained
+    with ``train`` at training seeds 0 (row ``name``), 1 and 2 (``name-seed1``, ``-seed2``;
+    a :data:`SEED_GROUPS` entry)."""
+    return [
+        Row(
+            name + (f"-seed{s}" if s else ""),
+            "dp",
+            SLIDE,
+            {**SQUARE, **EE},
+            "slide-gym/square-slide-ee-v1",
+            SQUARE_SLIDE,
+            train + (["--seed", str(s)] if s else []),
+        )
+        for s in (0, 1, 2)
+    ]
+
+
 OFFSETS = ["--actions", "offsets"]
 """The chunks of the rows trained before per-step deltas became the default."""
 ROWS = {
@@ -240,39 +258,9 @@ ROWS = {
             [*OFFSETS, "--no-features"],
         ),
         _ee_square_dagger("dp-dagger-ee-square-slide", 1, 16, "dp-ee-square-slide", workers=2),
-        Row(
-            "dp-ee-square-slide-10k",
-            "dp",
-            SLIDE,
-            {**SQUARE, **EE},
-            "slide-gym/square-slide-ee-v1",
-            SQUARE_SLIDE,
-            ["--iterations", "10000"],
-        ),
-        *(
-            Row(
-                f"dp-ee-square-slide-10k-seed{s}",
-                "dp",
-                SLIDE,
-                {**SQUARE, **EE},
-                "slide-gym/square-slide-ee-v1",
-                SQUARE_SLIDE,
-                ["--iterations", "10000", "--seed", str(s)],
-            )
-            for s in (1, 2)
-        ),
-        *(
-            Row(
-                "dp-ee-square-slide-wide" + (f"-seed{s}" if s else ""),
-                "dp",
-                SLIDE,
-                {**SQUARE, **EE},
-                "slide-gym/square-slide-ee-v1",
-                SQUARE_SLIDE,
-                ["--channels", "64", "128", "256", "--iterations", "10000"]
-                + (["--seed", str(s)] if s else []),
-            )
-            for s in (0, 1, 2)
+        *_ee_square_seeds("dp-ee-square-slide-10k", ["--iterations", "10000"]),
+        *_ee_square_seeds(
+            "dp-ee-square-slide-wide", ["--channels", "64", "128", "256", "--iterations", "10000"]
         ),
         Row(
             "dp-ee-square-slide-1000",

@@ -115,18 +115,18 @@ def test_tip_edge_margin_keeps_contacts_and_goals_inside_the_edge(solve_top_slid
 
 
 def test_cbirrt_restarts_with_a_new_pair_after_its_period(plan_budget: float) -> None:
-    """L on the square table, seed 3, goals from the paper's band C_g: the first validated
-    pair needs 14 search iterations. With a period of 5, cbirrt leaves that pair and draws
+    """L on the square table, seed 9, goals from the paper's band C_g: the first validated
+    pair needs 8 search iterations. With a period of 5, cbirrt leaves that pair and draws
     others; cbirrt-norestart keeps it."""
     from slide_gym.planning.runner import make_params, plan_once
 
     band = SlideParams(goal_sampling="band")
-    kw = {"seed": 3, "time_budget": plan_budget, "params": band}
+    kw = {"seed": 9, "time_budget": plan_budget, "params": band}
     kept = plan_once("L", "square", planner="cbirrt-norestart", **kw)
     assert kept["status"] == "solved" and kept["stats"]["restarts"] == 0
     assert kept["stats"]["iterations"] > 5
     params = make_params(restart_iterations=5, base=band)
-    kw = {"seed": 3, "planner": "cbirrt", "time_budget": plan_budget, "params": params}
+    kw = {"seed": 9, "planner": "cbirrt", "time_budget": plan_budget, "params": params}
     restarted = plan_once("L", "square", **kw)
     assert restarted["stats"]["restarts"] >= 1
     assert restarted["parameters"]["restart_iterations"] == 5

@@ -42,6 +42,11 @@ TURN_SCALE = 0.5
 TURN_SCALE). Small turns keep the slide short in joint space (a large plate, which may face
 the edge any way, then mostly slides without turning); large ones stay possible."""
 
+OTHER_EDGE_SIN = math.sin(math.radians(20.0))
+"""A drawn pose is dropped when the edge the plate overhangs most (where pair validation will
+grasp) turns more than 20 degrees from the aimed one: near a corner that is another edge,
+which may have no reachable grasp; a polygonal round table's neighbouring edges stay in."""
+
 
 class PlateGoalPoses:
     """Plate goal poses (x, y, yaw) that overhang an edge of P_g by at least u* with the
@@ -56,6 +61,9 @@ class PlateGoalPoses:
         centroid_margin: how far inside the edge the centroid must lie (m).
         contact_margin: how far inside the edge a ``contact`` passed to :meth:`sample` must
             lie (m; the planner's ``tip_edge_margin``).
+        stretches: the outline's stretches ``(p, q, outward normal)`` a side grasp can reach
+            (:attr:`TopSlideProblem.grasp_stretches`); the plate is aimed at the nearest
+            point of one of them. None: at the nearest point of the whole outline.
     """
 
     def __init__(
@@ -66,6 +74,7 @@ class PlateGoalPoses:
         u_star: float,
         centroid_margin: float = 0.0,
         contact_margin: float = 0.0,
+        stretches: list[tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None,
     ):
         self.plate, self.table = plate, table
         self.u_star, self.margin = float(u_star), float(centroid_margin)
@@ -77,13 +86,17 @@ class PlateGoalPoses:
         self.extent = (hull @ self.dirs.T).max(axis=0)  # how far the plate reaches along each
         slack = self.extent - self.u_star - self.margin
         self.delta = np.minimum(0.002, slack / 3.0)  # the least overhang is u* + delta
-        ring = shapely.get_coordinates(shapely.orient_polygons(table).exterior)
-        self.edge_a, edge_b = ring[:-1], ring[1:]
-        self.edge_d = edge_b - self.edge_a
-        self.edge_len2 = (self.edge_d**2).sum(axis=1)
+        if stretches is None:
+            ring = shapely.get_coordinates(shapely.orient_polygons(table).exterior)
+            ends = np.stack([ring[:-1], ring[1:]], axis=1)
+        else:
+            ends = np.array([(p, q) for p, q, _ in stretches]).reshape(-1, 2, 2)
+        self.edge_a, self.edge_d = ends[:, 0], ends[:, 1] - ends[:, 0]
+        self.edge_len2 = np.maximum((self.edge_d**2).sum(axis=1), 1e-18)
 
     def edge_point(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The nearest point of the table outline to ``xy`` and that edge's outward normal."""
+        """The nearest point of the outline (or of its reachable stretches) to ``xy`` and that
+        edge's outward normal."""
         t = np.clip(((xy - self.edge_a) * self.edge_d).sum(axis=1) / self.edge_len2, 0.0, 1.0)
         feet = self.edge_a + t[:, None] * self.edge_d
         k = int(np.argmin(((feet - xy) ** 2).sum(axis=1)))
@@ -131,6 +144,10 @@ class PlateGoalPoses:
         )
         if ov.u < self.u_star or not ov.centroid_inside or not margin_ok:
             return None
+        if ov.edge is not None:  # near a corner the plate may stick out farthest over another
+            e = np.diff(np.asarray(ov.edge, dtype=float), axis=0)[0]
+            if abs(float(np.dot(e, n))) > OTHER_EDGE_SIN * float(np.linalg.norm(e)):
+                return None
         if contact is not None:  # near a corner the other edge may come closer
             point = shapely.Point(transform_points(np.asarray(contact)[None], *pose)[0])
             inside = self.table.contains(point)

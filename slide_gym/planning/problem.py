@@ -10,6 +10,7 @@ import numpy as np
 import shapely
 
 from slide_gym.geometry import ObjectShape, TableShape, get_object, get_table, transform_points
+from slide_gym.planning.grasp_reach import reachable_stretches
 from slide_gym.planning.params import SlideParams
 from slide_gym.planning.regions import goal_band
 from slide_gym.task import check_scene, validate_start_pose
@@ -75,11 +76,19 @@ class TopSlideProblem:
         if self.contact_area.is_empty:
             raise ValueError(f"tip_edge_margin {margin} m leaves no table to press on")
         grasp_z = self.table.height + 0.5 * self.object.thickness
+        offset = self.params.grasp.edge_clearance
+        self.grasp_stretches = (
+            reachable_stretches(self.table.polygon, grasp_z, offset)
+            if self.params.goal_band_reachable
+            else None
+        )
+        """The outline's stretches ``(p, q, outward normal)`` with a reachable side grasp
+        (:mod:`~slide_gym.planning.grasp_reach`); None: every edge, unchecked."""
         self.goal_band = goal_band(
             self.table.polygon,
             self.params.goal_band_width,
             grasp_z if self.params.goal_band_reachable else None,
-            self.params.grasp.edge_clearance,
+            offset,
         )
         if margin > 0:
             self.goal_band = self.goal_band.intersection(self.contact_area)

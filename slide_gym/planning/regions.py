@@ -19,9 +19,9 @@ import shapely
 
 from slide_gym.planning.collision import CollisionChecker
 from slide_gym.planning.constraints import SlideConstraints, contact_rotation
+from slide_gym.planning.grasp_reach import reachable_stretches
 from slide_gym.planning.ik import IKParams, IKTarget, solve_ik
 from slide_gym.planning.result import PlannerStats
-from slide_gym.robot.kinematics import SHOULDER, WRIST_REACH, WRIST_TO_GRASP
 from slide_gym.robot.model import ARM_LOWER, ARM_UPPER, READY_ARM_Q
 
 TWO_PI = 2.0 * math.pi
@@ -121,11 +121,11 @@ def goal_band(
 ) -> shapely.Geometry:
     """P_g as an area: the table minus its inward offset by ``width``.
 
-    With ``grasp_height`` (the plate's mid-height) the band keeps only the stretches of each
-    edge where a side grasp ``grasp_offset`` outside the edge, perpendicular to it, has its
-    wrist centre within the arm's reach (an upper bound, so nothing graspable is dropped):
-    a plate slid elsewhere could never be picked up. Returns an empty geometry if nothing is
-    left.
+    With ``grasp_height`` (the plate's mid-height) the band keeps only the stretches of the
+    outline where a side grasp ``grasp_offset`` outside the edge, perpendicular to it, has an
+    IK solution (:func:`~slide_gym.planning.grasp_reach.reachable_stretches`, a necessary
+    condition: pair validation checks the rest): a plate slid elsewhere could never be picked
+    up. Returns an empty geometry if nothing is left.
     """
     inner = table.buffer(-width)
     band = table.difference(inner) if not inner.is_empty else table
@@ -133,22 +133,10 @@ def goal_band(
         raise ValueError(f"goal band of width {width} m is empty for this table")
     if grasp_height is None:
         return band
-    dz = grasp_height - SHOULDER[2]
-    if abs(dz) >= WRIST_REACH:
-        return shapely.Polygon()
-    disc = shapely.Point(SHOULDER[:2]).buffer(math.sqrt(WRIST_REACH**2 - dz**2), 256)
-    coords = shapely.get_coordinates(shapely.orient_polygons(table).exterior)
-    pieces = []
-    for a, b in zip(coords[:-1], coords[1:], strict=True):
-        e = (b - a) / np.linalg.norm(b - a)
-        n = np.array([e[1], -e[0]])  # outward for a counter-clockwise exterior
-        shift = (grasp_offset + WRIST_TO_GRASP) * n
-        reach = shapely.LineString([a + shift, b + shift]).intersection(disc)
-        ends = shapely.get_coordinates(reach)
-        if len(ends) < 2:
-            continue
-        p, q = ends[0] - shift, ends[-1] - shift
-        pieces.append(shapely.Polygon([p, q, q - 2 * width * n, p - 2 * width * n]))
+    pieces = [
+        shapely.Polygon([p, q, q - 2 * width * n, p - 2 * width * n])
+        for p, q, n in reachable_stretches(table, grasp_height, grasp_offset)
+    ]
     return band.intersection(shapely.union_all(pieces)) if pieces else shapely.Polygon()
 
 

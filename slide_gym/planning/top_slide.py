@@ -141,6 +141,7 @@ class TopSlidePlanner(Planner):
                 p.u_star,
                 p.centroid_margin,
                 p.tip_edge_margin,
+                problem.grasp_stretches,
             )
             start, turn = problem.start_pose, p.max_rotation
             self.goal_region = PlateGoalRegion(poses, self.start_region, start, turn, *args)

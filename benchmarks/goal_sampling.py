@@ -55,10 +55,11 @@ def summary(path: Path, poses: int | None = None) -> None:
         means[scale] = t.mean()
         nodes = np.mean([r["stats"]["tree_nodes"] for r in group])
         rejected = np.mean([r["stats"]["pairs_rejected"] for r in group])
+        refused = np.mean([r["stats"].get("pairs_refused", 0) for r in group])
         print(
             f"  scale {scale}: {len(t)} of {len(group)} solved; mean {t.mean():.2f} s, median "
             f"{np.median(t):.2f} s, <= 1 s {100 * np.mean(t <= 1):.1f} %; tree nodes "
-            f"{nodes:.0f}; pairs rejected per query {rejected:.1f}"
+            f"{nodes:.0f}; pairs rejected per query {rejected:.1f}, refused {refused:.1f}"
         )
     if len(means) == 2:
         print(f"  half / full mean planning time: {means[0.5] / means[1.0]:.2f}x")

@@ -313,7 +313,7 @@ def test_planners_target_names_the_best_baseline_and_the_gap() -> None:
         case = {"planner": planner, "scale": scale}
         checks = {"overhang": rejected, "grasp_ik": 1, "valid": 1}
         stats = {"pairs_rejected": rejected, "pair_checks": checks, "iterations": 4}
-        stats["tree_nodes"] = 40
+        stats |= {"pairs_refused": 2 * rejected, "tree_nodes": 40}
         status = "solved" if t is not None else "timeout"
         return {"case": case, "status": status, "planning_time_s": t or 10.0, "stats": stats}
 
@@ -325,7 +325,7 @@ def test_planners_target_names_the_best_baseline_and_the_gap() -> None:
     text = "\n".join(_planners_markdown(rows, 10.0))
     assert (
         "| regions | 1 | 4 | 100.0 % (" in text
-        and "| 0.250 s | 0.400 s | 0.250 s | 3.0 | 4.0 |" in text
+        and "| 0.250 s | 0.400 s | 0.250 s | 3.0 | 6.0 | 4.0 |" in text
     )
     assert "| regions | 0.5 | 4 | 75.0 % (" in text and "| 0.100 s | unsolved | 0.100 s |" in text
     assert "scale 1 median: regions 0.250 s against cbirrt 0.150 s" in text

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import json
 import math
@@ -278,3 +279,26 @@ def test_densify_bounds_metric_and_keeps_waypoints():
     assert 1 + 30 + 30 <= len(dense) <= 1 + 31 + 31  # near-minimal: no bisection blow-up
     with pytest.raises(DensifyError):
         densify(path, 0.01, lambda q, near: None, metric)
+
+
+def test_pairs_the_quick_check_refuses_are_never_connected():
+    """With pair_feasible = pair_valid's own condition, every connected pair is valid: the
+    refused goal trees (x <= 0.9) are not grown toward, and the answer stays a valid pair."""
+    checked: list[tuple[np.ndarray, np.ndarray]] = []
+
+    def feasible(q_start: np.ndarray, q_goal: np.ndarray) -> bool:
+        checked.append((q_start, q_goal))
+        return pair_valid(q_start, q_goal)[0]
+
+    fns = dataclasses.replace(toy_fns(), pair_feasible=feasible)
+    refused = rejected = 0
+    for seed in range(6):
+        res = solve("regions", seed=seed, fns=fns)
+        assert res.status is PlanStatus.SOLVED, res.reason
+        assert res.goal_config[0] > 0.9
+        assert res.stats.pairs_rejected == 0  # nothing connected was invalid
+        refused += res.stats.pairs_refused
+        plain = solve("regions", seed=seed)
+        rejected += plain.stats.pairs_rejected
+    assert refused > 0 and rejected > 0  # the goal disc reaches x < 0.9: some pairs are bad
+    assert len(checked) == len({(a.tobytes(), b.tobytes()) for a, b in checked})  # once each

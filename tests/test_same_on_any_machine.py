@@ -28,7 +28,7 @@ machine (they plan in well under a second of real time), so neither run ever giv
 
 def _plan(seed: int):
     """The ``slide-gym bench plan`` query for the circle on the square table, ``seed``: its
-    pair validation needs the fallback transfer planner for seed 1."""
+    pair validation needs the fallback transfer planner for seed 0."""
     shape, table = get_object("circle"), get_table("square")
     pose_rng, plan_rng = seeded_generators(seed)
     pose = sample_start_pose(shape, table, pose_rng, TaskParams().start_margin)
@@ -38,11 +38,11 @@ def _plan(seed: int):
 
 
 def test_plan_is_the_same_with_a_slow_clock(slow_clock):
-    fast = _plan(1)
+    fast = _plan(0)
     assert fast.solved, fast.reason
     assert fast.extra["validator_counts"]["fallback"] >= 1  # the formerly time-capped part ran
     slow_clock(SLOWDOWN)
-    slow = _plan(1)
+    slow = _plan(0)
     assert slow.solved, slow.reason
     np.testing.assert_array_equal(slow.path, fast.path)
     assert slow.stats.counts() == fast.stats.counts()

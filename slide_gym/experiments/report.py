@@ -344,15 +344,19 @@ def _scale_markdown(rows: list[dict[str, Any]]) -> list[str]:
         f"({100 * (ratio / SCALE_RATIO - 1):.0f} % over {SCALE_RATIO:g}); at half scale that "
         f"is {means[0.5] - allowed:.2f} s over the {allowed:.2f} s the target allows."
     )
-    rejected = {
-        s: np.mean([r["stats"]["pairs_rejected"] for r in rows if r["case"]["scale"] == s])
-        for s in (1.0, 0.5)
-        if all("stats" in r for r in rows)
-    }
+    rejected, refused = (
+        {
+            s: np.mean([r["stats"].get(key, 0) for r in rows if r["case"]["scale"] == s])
+            for s in (1.0, 0.5)
+            if all("stats" in r for r in rows)
+        }
+        for key in ("pairs_rejected", "pairs_refused")
+    )
     why = (
         f" Connected start/goal pairs rejected by pair validation, per query: "
-        f"{rejected[0.5]:.1f} at half scale against {rejected[1.0]:.1f} at full scale (a small "
-        "plate overhangs u* only when its farthest point faces the edge)."
+        f"{rejected[0.5]:.1f} at half scale against {rejected[1.0]:.1f} at full scale; pairs "
+        f"its quick check refused before connecting them: {refused[0.5]:.1f} against "
+        f"{refused[1.0]:.1f}."
         if len(rejected) == 2
         else ""
     )
@@ -376,9 +380,9 @@ def _planners_markdown(rows: list[dict[str, Any]], budget: float) -> list[str]:
     baseline's at each scale."""
     lines = [
         f"| planner | scale | runs | solved within {budget:g} s | median | p90 | mean (solved) "
-        "| connected pairs rejected / query | pair checks rejected / query | iterations / query "
-        "| tree nodes / query |",
-        "|---" * 11 + "|",
+        "| connected pairs rejected / query | refused unconnected / query "
+        "| pair checks rejected / query | iterations / query | tree nodes / query |",
+        "|---" * 12 + "|",
     ]
     stats: dict[tuple[str, float], tuple[float, float]] = {}
     planners = sorted({r["case"]["planner"] for r in rows}, key=lambda p: (p != "regions", p))
@@ -400,6 +404,7 @@ def _planners_markdown(rows: list[dict[str, Any]], budget: float) -> list[str]:
                 f"| {planner} | {scale:g} | {len(mine)} | {100 * k / len(t):.1f} % "
                 f"({100 * lo:.0f}-{100 * hi:.0f}) | {_seconds(median)} | {_seconds(p90)} | {mean} "
                 f"| {_per_query(mine, lambda s: s['pairs_rejected'])} "
+                f"| {_per_query(mine, lambda s: s.get('pairs_refused', 0))} "
                 f"| {_per_query(mine, _checks_rejected)} "
                 f"| {_per_query(mine, lambda s: s['iterations'])} "
                 f"| {_per_query(mine, lambda s: s['tree_nodes'], '.0f')} |"
@@ -407,9 +412,11 @@ def _planners_markdown(rows: list[dict[str, Any]], budget: float) -> list[str]:
     lines += [
         "",
         "Connected pairs rejected: start/goal trees that connected and then failed pair "
-        "validation (`stats.pairs_rejected`). Pair checks rejected: every failed pair "
-        "validation (`stats.pair_checks`), including the pairs `cbirrt` draws and rejects "
-        "before it searches, which grow no tree.",
+        "validation (`stats.pairs_rejected`). Refused unconnected: tree pairs the validator's "
+        "quick check (turn, overhang, grasp line, reach; no IK) ruled out before the search "
+        "grew one toward the other (`stats.pairs_refused`). Pair checks rejected: every "
+        "failed pair validation (`stats.pair_checks`), including the pairs `cbirrt` draws "
+        "and rejects before it searches, which grow no tree.",
         "",
         *_planners_target(stats),
     ]

@@ -91,4 +91,3 @@ def _stretches(ring_bytes: bytes, grasp_z: float, offset: float) -> tuple:
                 out.append((a + start / k * length * e, a + i / k * length * e, n))
                 start = None
     return tuple(out)
-

@@ -208,32 +208,10 @@ class PairValidator:
         u_star = self.u_star if u_star is None else float(u_star)
         margin = self.centroid_margin if centroid_margin is None else float(centroid_margin)
         goal = np.asarray(goal, dtype=float)
-        placed = transform_polygon(self.obj.polygon, *goal)
-        ov = overhang(placed, self.table.polygon)
-        info: dict[str, Any] = {"object_goal_pose": goal, "overhang_m": ov.u}
-        centroid_ok = ov.centroid_inside and (
-            margin <= 0.0 or self.table.polygon.exterior.distance(placed.centroid) >= margin
-        )
-        if ov.u < u_star or not centroid_ok or ov.edge is None:
-            self.counts["overhang"] += 1
-            why = "centroid off the table" if not centroid_ok else "overhang below u_star"
-            return False, {**info, "reason": why}
-        info["edge"] = ov.edge
-        z_mid = self.table.height + 0.5 * self.obj.thickness
-        poses = grasp_poses(ov.outside, ov.edge, z_mid, self.grasp)
-        if poses is None:  # near a corner: try the other edges the overhang sticks out over
-            for edge in _edges_near(self.table.polygon, ov.outside):
-                poses = grasp_poses(ov.outside, edge, z_mid, self.grasp)
-                if poses is not None:
-                    info["edge"] = edge
-                    break
+        info, poses, counter = self._grasp_targets(goal, u_star, margin)
         if poses is None:
-            self.counts["overhang"] += 1
-            return False, {**info, "reason": "too little plate on the grasp line"}
-        wrist = poses[0][0] - WRIST_TO_GRASP * poses[0][1][:, 2]
-        if np.linalg.norm(wrist - SHOULDER) > WRIST_REACH:
-            self.counts["reach"] += 1
-            return False, {**info, "reason": "grasp pose out of the arm's reach"}
+            self.counts[counter] += 1
+            return False, info
         if time.perf_counter() >= self.deadline:
             return self._timed_out(info)
         cap = self.grasp.transfer_iterations if transfer_iterations is None else transfer_iterations
@@ -263,6 +241,45 @@ class PairValidator:
             return True, found
         self.counts[counter] += 1
         return False, {**info, "reason": reason}
+
+    def feasible(self, q_s: np.ndarray, q_g: np.ndarray) -> bool:
+        """The quick half of :meth:`__call__`, no IK and no collision checks: the plate's turn,
+        its overhang and centroid, plate on the grasp line and the grasp within the arm's
+        reach. False: :meth:`__call__` would reject the pair; True decides nothing."""
+        goal = self.object_goal(q_s, q_g)
+        if abs(wrap_angle(goal[2] - self.object_start[2])) > self.max_rotation:
+            return False
+        return self._grasp_targets(goal, self.u_star, self.centroid_margin)[1] is not None
+
+    def _grasp_targets(
+        self, goal: np.ndarray, u_star: float, margin: float
+    ) -> tuple[dict[str, Any], list | None, str]:
+        """``(info, grasp poses, "")`` for the plate at ``goal``, or ``(info with a reason,
+        None, the counter to raise)`` when the placement alone rules the grasp out."""
+        placed = transform_polygon(self.obj.polygon, *goal)
+        ov = overhang(placed, self.table.polygon)
+        info: dict[str, Any] = {"object_goal_pose": goal, "overhang_m": ov.u}
+        centroid_ok = ov.centroid_inside and (
+            margin <= 0.0 or self.table.polygon.exterior.distance(placed.centroid) >= margin
+        )
+        if ov.u < u_star or not centroid_ok or ov.edge is None:
+            why = "centroid off the table" if not centroid_ok else "overhang below u_star"
+            return {**info, "reason": why}, None, "overhang"
+        info["edge"] = ov.edge
+        z_mid = self.table.height + 0.5 * self.obj.thickness
+        poses = grasp_poses(ov.outside, ov.edge, z_mid, self.grasp)
+        if poses is None:  # near a corner: try the other edges the overhang sticks out over
+            for edge in _edges_near(self.table.polygon, ov.outside):
+                poses = grasp_poses(ov.outside, edge, z_mid, self.grasp)
+                if poses is not None:
+                    info["edge"] = edge
+                    break
+        if poses is None:
+            return {**info, "reason": "too little plate on the grasp line"}, None, "overhang"
+        wrist = poses[0][0] - WRIST_TO_GRASP * poses[0][1][:, 2]
+        if np.linalg.norm(wrist - SHOULDER) > WRIST_REACH:
+            return {**info, "reason": "grasp pose out of the arm's reach"}, None, "reach"
+        return info, poses, ""
 
     def _timed_out(self, info: dict[str, Any]) -> tuple[bool, dict[str, Any]]:
         self.counts["timeout"] += 1

@@ -40,6 +40,7 @@ class PlannerStats:
     tree_nodes: int = 0
     pairs_validated: int = 0
     pairs_rejected: int = 0
+    pairs_refused: int = 0  # by the quick check, before any connection was tried
     time_projection_s: float = 0.0
     time_collision_s: float = 0.0
     time_validation_s: float = 0.0

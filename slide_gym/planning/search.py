@@ -59,6 +59,9 @@ class SearchFunctions:
     sample_goal_root: RootSampler | None = None
     motion_valid: Callable[[Config, Config], bool] | None = None
     distance_weights: Sequence[float] | np.ndarray | None = None
+    pair_feasible: Callable[[Config, Config], bool] | None = None
+    """A quick necessary condition of ``pair_valid`` on two roots: a tree pair it refuses is
+    never connected (the search grows toward the nearest tree it does not refuse)."""
 
 
 def can_add_root(n_start: int, n_goal: int, n_star: int, rng: np.random.Generator) -> bool:
@@ -77,6 +80,7 @@ def timed_functions(fns: SearchFunctions, stats: PlannerStats) -> SearchFunction
         sample_start_root=timed(fns.sample_start_root, stats, "time_sampling_s"),
         sample_goal_root=timed(fns.sample_goal_root, stats, "time_sampling_s"),
         motion_valid=timed(fns.motion_valid, stats, "time_collision_s"),
+        pair_feasible=timed(fns.pair_feasible, stats, "time_validation_s"),
     )
 
 
@@ -177,13 +181,39 @@ def forest_connect_search(
             else:
                 forests[k].add_root(q)
     # rejected[k][tree] = trees of the other forest whose pair with `tree` failed pair_valid
+    # (or pair_feasible); feasible: (start tree, goal tree) pairs pair_feasible let through
     rejected: tuple[dict[int, set[int]], dict[int, set[int]]] = ({}, {})
-    n_rejected = 0
+    feasible: set[tuple[int, int]] = set()
+    n_rejected = n_refused = 0  # n_rejected counts the refused pairs too
     last_info: Any = None
     tol, step, steps = params.goal_tolerance, params.step_size, params.max_extend_steps
 
     def can_grow(k: int) -> bool:
         return samplers[k] is not None and (caps[k] is None or forests[k].n_trees < caps[k])
+
+    def reject(trees: tuple[int, int]) -> None:
+        nonlocal n_rejected
+        n_rejected += 1
+        rejected[0].setdefault(trees[0], set()).add(trees[1])
+        rejected[1].setdefault(trees[1], set()).add(trees[0])
+
+    def nearest_allowed(a: int, q: Config, tree_a: int) -> tuple[int, int] | None:
+        """The other forest's nearest (tree, node) to ``q`` whose tree may pair with
+        ``tree_a`` (not rejected, not refused by ``pair_feasible``)."""
+        nonlocal n_refused
+        fb = forests[1 - a]
+        while (hit := fb.nearest(q, rejected[a].get(tree_a, ()))) is not None:
+            trees = (tree_a, hit[0]) if a == 0 else (hit[0], tree_a)
+            if fns.pair_feasible is None or trees in feasible:
+                return hit
+            roots = forests[0].root_config(trees[0]), forests[1].root_config(trees[1])
+            if fns.pair_feasible(*roots):
+                feasible.add(trees)
+                return hit
+            n_refused += 1
+            stats.pairs_refused += 1
+            reject(trees)
+        return None
 
     def finish(status: PlanStatus, reason: str | None, **out: Any) -> PlanResult:
         stats.tree_nodes = forests[0].n_nodes + forests[1].n_nodes
@@ -207,7 +237,7 @@ def forest_connect_search(
             return finish(
                 PlanStatus.INFEASIBLE,
                 f"all {n_rejected} start/goal root pairs were rejected by pair_valid "
-                "and no more roots can be added",
+                f"({n_refused} of them by pair_feasible) and no more roots can be added",
                 extra={"last_pair_info": last_info},
             )
         if time.perf_counter() >= deadline:
@@ -215,7 +245,7 @@ def forest_connect_search(
                 PlanStatus.TIMEOUT,
                 f"time budget exhausted after {stats.iterations} iterations "
                 f"({forests[0].n_trees} start / {forests[1].n_trees} goal trees, "
-                f"{n_rejected} connected pairs rejected)",
+                f"{n_rejected - n_refused} connected pairs rejected, {n_refused} refused)",
                 extra={"last_pair_info": last_info},
             )
         if params.max_iterations is not None and stats.iterations >= params.max_iterations:
@@ -223,7 +253,8 @@ def forest_connect_search(
                 PlanStatus.ITERATION_LIMIT,
                 f"iteration limit reached: {stats.iterations} iterations "
                 f"(max_iterations={params.max_iterations}; {forests[0].n_trees} start / "
-                f"{forests[1].n_trees} goal trees, {n_rejected} connected pairs rejected)",
+                f"{forests[1].n_trees} goal trees, {n_rejected - n_refused} connected pairs "
+                f"rejected, {n_refused} refused)",
                 extra={"last_pair_info": last_info},
             )
         stats.iterations += 1
@@ -244,7 +275,7 @@ def forest_connect_search(
                 fa, near, q_rand, fns, step, tolerance=tol, max_steps=steps, deadline=deadline
             )
             q_a, tree_a = fa.config(a_idx), fa.tree_of(a_idx)
-            hit = fb.nearest(q_a, rejected[a].get(tree_a, ()))
+            hit = nearest_allowed(a, q_a, tree_a)
             if hit is not None:
                 b_idx, reached = constrained_extend(
                     fb, hit[1], q_a, fns, step, tolerance=tol, max_steps=steps, deadline=deadline
@@ -265,9 +296,7 @@ def forest_connect_search(
                             extra={"pair_info": last_info, "trees": trees},
                         )
                     stats.pairs_rejected += 1
-                    n_rejected += 1
-                    rejected[0].setdefault(trees[0], set()).add(trees[1])
-                    rejected[1].setdefault(trees[1], set()).add(trees[0])
+                    reject(trees)
         a = 1 - a
 
 

@@ -61,6 +61,9 @@ START_TIP_TOLERANCE = 0.005
 farther than this is rejected (it was not pressing the plate as the constraints want)."""
 START_JOINT_TOLERANCE = 0.1
 """rad: ... or changes a joint by more than this."""
+START_TRIES = 5
+"""Start roots the regions planner's Init draws, at most, before it gives up on a goal root
+(see :meth:`TopSlidePlanner._start_tries`)."""
 
 
 class TopSlidePlanner(Planner):
@@ -231,6 +234,7 @@ class TopSlidePlanner(Planner):
             project=self.project,
             collides=self.collides,
             pair_valid=self.pair_valid,
+            pair_feasible=self.validator.feasible,
             sample_start_root=self.start_region.sample if start else None,
             sample_goal_root=self.goal_region.sample if goal else None,
             motion_valid=self.chord_valid if self.problem.params.projection == "nodes" else None,
@@ -360,17 +364,34 @@ class TopSlidePlanner(Planner):
                     return [], [], "timeout:pair"
             return [], [], "limit:pair"
         roots: list[list] = [[], []]
-        for k, (side, region) in enumerate(regions):
-            if k == 1 and self.name == "cbirrt2":
-                break
-            if k == 0 and self.start_config is not None:
+        tries = self._start_tries()
+        for attempt in range(tries):
+            if self.start_config is not None:
                 roots[0].append(self.start_config)
-                continue
-            q = self._draw(region, deadline, stats)
+            else:
+                q = self._draw(self.start_region, deadline, stats)
+                if isinstance(q, str):
+                    return [], [], f"{q}:start"
+                roots[0].append(q)
+            if self.name == "cbirrt2":
+                break
+            q = self._draw(self.goal_region, deadline, stats)
+            if isinstance(q, str) and q == "exhausted" and attempt < tries - 1:
+                continue  # no goal pose keeps this root's contact on the table: another root
             if isinstance(q, str):
-                return [], [], f"{q}:{side}"
-            roots[k].append(q)
+                return [], [], f"{q}:goal"
+            roots[1].append(q)
+            break
         return roots[0], roots[1], None
+
+    def _start_tries(self) -> int:
+        """Start roots Init may draw before it gives up on a goal root: plate-first goal roots
+        depend on the start root's contact (a contact near the plate's rim may leave no goal
+        pose that keeps it on the table), so the regions planner draws up to
+        :data:`START_TRIES` of them; one otherwise."""
+        plate_goals = isinstance(self.goal_region, PlateGoalRegion)
+        sampled = self.name == "regions" and self.start_config is None
+        return START_TRIES if plate_goals and sampled else 1
 
     def _solve(self, deadline: float, stats: PlannerStats) -> PlanResult:
         t_start = time.perf_counter()
@@ -455,8 +476,10 @@ class TopSlidePlanner(Planner):
             )
             return PlanResult(PlanStatus.ITERATION_LIMIT, reason, extra=extra)
         if what == "exhausted":
+            tries = self._start_tries()
+            each = f" for each of {tries} start roots" if side == "goal" and tries > 1 else ""
             reason = (
-                f"no {side} configuration: {self.max_root_draws} draws from C_{side[0]} "
+                f"no {side} configuration: {self.max_root_draws} draws from C_{side[0]}{each} "
                 "all failed (IK, manifold checks or collisions)"
             )
             return PlanResult(PlanStatus.INFEASIBLE, reason, extra=extra)

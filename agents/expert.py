@@ -50,6 +50,7 @@ from agents.params import (
     plate_grasp_u_star,
     plate_slide_params,
     relaxed_slide_params,
+    turning_slide_params,
 )
 from agents.record import ExpertReport
 from agents.scene import SceneLibrary
@@ -336,7 +337,11 @@ class SlideGraspExpert:
         self.centroid_margin = strict.centroid_margin
         self.small_plate = is_small_plate(self.slide_params, self.params, self.obj.circumradius)
         self.grasp_u_star = plate_grasp_u_star(self.params, strict, self.small_plate)
-        return [("strict", strict), ("relaxed", relaxed_slide_params(strict))]
+        return [
+            ("strict", strict),
+            ("relaxed", relaxed_slide_params(strict)),
+            ("turning", turning_slide_params(strict)),
+        ]
 
     def _budget_left(self) -> float:
         """Planning seconds left in the episode's budget (a give-up deadline, nothing more)."""
@@ -418,7 +423,7 @@ class SlideGraspExpert:
             budget = self._budget_left()
             if budget <= 0.05:
                 return self._fail("planning budget used up")
-            if k < len(attempts) - 1:  # capped by iterations, not by a share of the time
+            if k == 0:  # capped by iterations, not by a share of the time
                 params = dataclasses.replace(
                     params, max_iterations=self.params.strict_plan_iterations
                 )

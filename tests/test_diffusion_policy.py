@@ -348,6 +348,7 @@ def test_one_dagger_round_adds_labelled_steps(dart, trained, tmp_path):
         (["collect", "--episodes", "1", "--dataset-id", "t/x.y-v0"], "NAMESPACE/NAME-vK"),
         (["dagger", "--policy", "{empty}", "--out", "d", "--dataset-id", "tt/d-v0"], "policy.pt"),
         (["train-dp", "nobody/nothing-v0", "--out", "dp", "--init", "{empty}"], "policy.pt"),
+        (["train-dp", "nobody/nothing-v0", "--out", "dp", "--after", "{empty}"], "sliding policy"),
         (
             ["dagger", "--policy", "{empty}", "--skip-phases", "releese", "--out", "d"]
             + ["--dataset-id", "tt/d-v0"],
@@ -385,3 +386,74 @@ def test_train_dp_defaults_are_the_configs():
     assert (args.actions, args.scaling) == (default.actions, default.scaling)
     assert args.inference_steps == default.inference_steps
     assert args.no_features is not default.with_features
+
+
+def test_slide_done_first_holds_at_the_lift_off_of_a_grasp_demonstration():
+    """The expert's square-on-square grasp episode (seed 5, fingertip steps): slide_done is
+    false through approach, press and slide, and first holds while the fingertip lifts off,
+    long before the hand closes."""
+    from agents.learned.features import slide_done
+    from agents.planner_agent import PlannerAgent
+
+    env = gym.make("SlideGym/TopSlideGrasp-v0", control_mode="ee_delta")
+    agent = PlannerAgent(control_mode="ee_delta", seed=5)
+    obs, _ = env.reset(seed=5)
+    phases, done = [], []
+    try:
+        for _ in range(1200):
+            action, _ = agent.predict(obs)
+            phases.append(agent.expert(0).phase)
+            done.append(bool(slide_done({k: v[None] for k, v in obs.items()})[0]))
+            obs, _, terminated, truncated, info = env.step(action)
+            if terminated or truncated:
+                break
+    finally:
+        agent.close()
+        env.close()
+    assert info["is_success"]
+    first = done.index(True)
+    assert phases[first] == "lift_off"
+    assert not any(d for d, p in zip(done, phases, strict=True) if p in ("press", "slide"))
+    assert first < phases.index("close") - 100
+
+
+def test_after_slide_keeps_each_episode_from_its_finished_slide(dart, monkeypatch):
+    import agents.learned.data as data
+
+    full = load_demonstrations(dart)
+    monkeypatch.setattr(data, "slide_done", lambda obs: np.arange(len(obs["arm_qpos"])) >= 30)
+    later = load_demonstrations(dart, after_slide=True)
+    np.testing.assert_array_equal(later.lengths, full.lengths - 30)
+    first = full.labels[30 : full.lengths[0]]
+    np.testing.assert_array_equal(later.labels[: later.lengths[0]], first)
+    monkeypatch.setattr(data, "slide_done", lambda obs: np.zeros(len(obs["arm_qpos"]), bool))
+    with pytest.raises(ValueError, match="no episode to learn from"):
+        load_demonstrations(dart, after_slide=True)
+
+
+def test_a_policy_after_a_slide_runs_the_first_skill_until_the_slide_is_done(
+    trained, tmp_path, monkeypatch
+):
+    import agents.learned.policy as policy_module
+    from agents.learned.policy import load_model, save_policy
+
+    grasp, slide = load_model(trained / "policy.pt"), load_model(trained / "policy.pt")
+    save_policy(grasp, tmp_path, {"env_id": ENV_ID}, first=slide)
+    policy = DiffusionPolicy.load(tmp_path)
+    assert len(policy.skills) == 2 and policy.skills[0] is not policy.model
+    calls = []
+    for name, skill in (("slide", policy.skills[0]), ("grasp", policy.model)):
+        real = skill.sample
+        monkeypatch.setattr(skill, "sample", lambda *a, n=name, r=real: calls.append(n) or r(*a))
+    done = [False] * 3 + [True] * 10 + [False] * 2  # the switch is for the episode
+    monkeypatch.setattr(policy_module, "slide_done", lambda obs: np.array([done.pop(0)]))
+    env = gym.make(ENV_ID)
+    obs, _ = env.reset(seed=0)
+    env.close()
+    for t in range(14):
+        policy.predict(obs, episode_start=np.array([t == 0]))
+    # slide chunk at step 0; at step 3 the grasp skill starts with a fresh queue (8 steps),
+    # and keeps acting when slide_done no longer holds
+    assert calls == ["slide", "grasp", "grasp"]
+    policy.predict(obs, episode_start=np.array([True]))
+    assert calls[-1] == "slide"  # a new episode starts with the slide again

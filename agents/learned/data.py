@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.learned.features import policy_input
+from agents.learned.features import policy_input, slide_done
 from slide_gym.datasets.recording import LABEL_KEY
 
 MIN_STD = 1e-2
@@ -66,11 +66,18 @@ def episode_labels(episode: Any) -> np.ndarray:
 
 
 def load_demonstrations(
-    dataset: Any, *, with_features: bool = True, only_success: bool = True
+    dataset: Any,
+    *,
+    with_features: bool = True,
+    only_success: bool = True,
+    after_slide: bool = False,
 ) -> Demonstrations:
     """The episodes of Minari ``dataset`` as :class:`Demonstrations`: those whose ``success``
     flag is set (all, if ``only_success`` is False), and every DAgger rollout (whatever the
-    learner did, its labels are the expert's). ValueError if none is left."""
+    learner did, its labels are the expert's). ``after_slide``: each episode from its first
+    step where :func:`~agents.learned.features.slide_done` holds (an episode where it never
+    does is skipped), the part a skill that takes over after a slide learns from.
+    ValueError if none is left."""
     episode_ids = list(range(dataset.total_episodes))
     metas = list(dataset.storage.get_episode_metadata(episode_ids))
     inputs, labels, lengths, seeds = [], [], [], []
@@ -87,8 +94,16 @@ def load_demonstrations(
         if not isinstance(episode.observations, dict):
             raise ValueError("the dataset's observations must be a Dict (a slide-gym env's)")
         obs = {k: np.asarray(v)[:n] for k, v in episode.observations.items()}
+        episode_targets = episode_labels(episode)
+        if after_slide:
+            done = np.flatnonzero(slide_done(obs))
+            if len(done) == 0:
+                skipped += 1
+                continue
+            obs = {k: v[done[0] :] for k, v in obs.items()}
+            episode_targets, n = episode_targets[done[0] :], n - int(done[0])
         inputs.append(policy_input(obs, with_features))
-        labels.append(episode_labels(episode))
+        labels.append(episode_targets)
         lengths.append(n)
         seeds.append(int(meta.get("seed", -1)))
     if not lengths:

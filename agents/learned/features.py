@@ -25,6 +25,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from slide_gym.envs.observation import FLAT_KEYS, SCENE_KEYS
+from slide_gym.robot.model import MIN_CONTACT_SIZE
 
 STATE_KEYS = (*FLAT_KEYS, *SCENE_KEYS)
 """The state observation's entries, in the order :func:`flatten` packs them."""
@@ -36,6 +37,11 @@ TASK_FEATURES = (
     ("overhang", 1),
 )
 TASK_FEATURE_SIZE = sum(size for _, size in TASK_FEATURES)
+SLIDE_DONE_OVERHANG = MIN_CONTACT_SIZE
+"""m: the overhang from which :func:`slide_done` may hold (the task's u*)."""
+SLIDE_DONE_BEND = 0.05
+"""rad: :func:`slide_done` holds once the pressing finger's joint is bent less than this
+(pressed, it bends 0.2-0.3 rad; unloaded, within 0.03)."""
 
 
 def quat_to_matrix(q: np.ndarray) -> np.ndarray:
@@ -93,6 +99,18 @@ def task_features(obs: Mapping[str, np.ndarray]) -> np.ndarray:
             np.maximum(reach, 0.0),
         ]
     ).astype(np.float32)
+
+
+def slide_done(obs: Mapping[str, np.ndarray]) -> np.ndarray:
+    """(N,) bool: the observations show a finished slide. The plate overhangs the nearest
+    edge by at least :data:`SLIDE_DONE_OVERHANG` (the task's u*, as the ``overhang`` feature
+    reads it) and the pressing finger has unbent to within :data:`SLIDE_DONE_BEND` (the
+    fingertip has let go). ``TopSlide-v0``'s expert demonstrations end about there, and in a
+    ``TopSlideGrasp-v0`` demonstration it first holds a few steps into the lift-off: the
+    point where a grasping skill takes over from a sliding one
+    (:class:`~agents.learned.policy.DiffusionPolicy` with ``first``)."""
+    bend = np.abs(np.asarray(obs["finger_qpos"], np.float64)[:, 0])
+    return (task_features(obs)[:, -1] >= SLIDE_DONE_OVERHANG) & (bend < SLIDE_DONE_BEND)
 
 
 def flatten(obs: Mapping[str, np.ndarray], keys: Sequence[str] = STATE_KEYS) -> np.ndarray:

@@ -8,7 +8,11 @@ a slot's history and queue. Slots that need a chunk on the same call are sampled
 
 A policy folder holds ``policy.pt`` (the EMA weights with their statistics and config) and
 ``policy.json`` (the env it acts in, the dataset and the training figures), written by
-:func:`save_policy`; :meth:`DiffusionPolicy.load` opens it.
+:func:`save_policy`; :meth:`DiffusionPolicy.load` opens it. A policy trained to take over
+after a slide (``slide-gym train-dp --after SLIDE_POLICY``) also holds ``first.pt``, the
+sliding skill: each slot runs that one until its observation shows the slide done
+(:func:`~agents.learned.features.slide_done`), then this folder's model, with a fresh history
+and queue, until the episode ends.
 """
 
 from __future__ import annotations
@@ -23,10 +27,11 @@ import torch
 from agents.batch import as_batch
 from agents.learned.data import chunk_to_actions
 from agents.learned.diffusion import DiffusionConfig, DiffusionModel
-from agents.learned.features import policy_input
+from agents.learned.features import policy_input, slide_done
 from slide_gym.planning.result import json_values
 
 WEIGHTS_FILE = "policy.pt"
+FIRST_FILE = "first.pt"
 CARD_FILE = "policy.json"
 
 
@@ -35,19 +40,31 @@ def is_policy_dir(path: str | Path) -> bool:
     return (Path(path) / WEIGHTS_FILE).is_file()
 
 
-def save_policy(model: DiffusionModel, folder: Path, card: dict[str, Any]) -> Path:
-    """Write ``model`` (weights, statistics, config) and ``card`` (``env_id``,
-    ``env_kwargs``, ...) into ``folder``; return the weights' path."""
-    folder.mkdir(parents=True, exist_ok=True)
+def _save_model(model: DiffusionModel, path: Path) -> None:
     blob = {
         "config": model.config.to_json(),
         "input_dim": model.input_dim,
         "action_dim": model.action_dim,
         "state_dict": model.state_dict(),
     }
-    tmp = folder / (WEIGHTS_FILE + ".tmp")
+    tmp = path.with_name(path.name + ".tmp")
     torch.save(blob, tmp)
-    tmp.replace(folder / WEIGHTS_FILE)
+    tmp.replace(path)
+
+
+def save_policy(
+    model: DiffusionModel,
+    folder: Path,
+    card: dict[str, Any],
+    first: DiffusionModel | None = None,
+) -> Path:
+    """Write ``model`` (weights, statistics, config), the sliding skill ``first`` that acts
+    before it (if any) and ``card`` (``env_id``, ``env_kwargs``, ...) into ``folder``; return
+    the weights' path."""
+    folder.mkdir(parents=True, exist_ok=True)
+    if first is not None:
+        _save_model(first, folder / FIRST_FILE)
+    _save_model(model, folder / WEIGHTS_FILE)
     (folder / CARD_FILE).write_text(json.dumps(json_values(card), indent=2) + "\n")
     return folder / WEIGHTS_FILE
 
@@ -73,6 +90,8 @@ class DiffusionPolicy:
             the model's; at most ``pred_horizon - obs_horizon + 1``). Fewer react sooner to
             what the plate does, at one sample per that many steps.
         card: the policy card (``env_id``, ``env_kwargs``, ...), if loaded from a folder.
+        first: a sliding skill that acts until the observation shows the slide done
+            (:func:`~agents.learned.features.slide_done`); ``model`` acts from then on.
     """
 
     def __init__(
@@ -83,13 +102,36 @@ class DiffusionPolicy:
         inference_steps: int | None = None,
         action_horizon: int | None = None,
         card: dict[str, Any] | None = None,
+        first: DiffusionModel | None = None,
     ) -> None:
         torch.set_num_threads(1)
         self.model = model.eval()
         self.config = model.config
-        most = self.config.pred_horizon - self.config.obs_horizon + 1
+        # the skills in the order they act: [first,] model
+        self.skills = [first.eval(), self.model] if first is not None else [self.model]
+        if first is not None and (first.input_dim, first.action_dim) != (
+            model.input_dim,
+            model.action_dim,
+        ):
+            raise ValueError(
+                f"the first skill's inputs/actions ({first.input_dim}/{first.action_dim}) "
+                f"differ from the policy's ({model.input_dim}/{model.action_dim})"
+            )
+        self.horizons = [self._action_horizon(m.config, action_horizon) for m in self.skills]
+        self.action_horizon = self.horizons[-1]
+        self.inference_steps = inference_steps
+        self.card = dict(card or {})
+        self.seed = int(seed)
+        self.generator = torch.Generator().manual_seed(self.seed)
+        self._history: list[list[np.ndarray]] = []
+        self._queues: list[list[np.ndarray]] = []
+        self._skill: list[int] = []  # per slot: the index in self.skills acting now
+
+    @staticmethod
+    def _action_horizon(config: DiffusionConfig, action_horizon: int | None) -> int:
+        most = config.pred_horizon - config.obs_horizon + 1
         if action_horizon is None:
-            action_horizon = self.config.action_horizon
+            return config.action_horizon
         if (
             isinstance(action_horizon, bool)
             or not isinstance(action_horizon, int)
@@ -99,13 +141,7 @@ class DiffusionPolicy:
                 f"action_horizon must be a whole number in 1..{most} (pred_horizon - "
                 f"obs_horizon + 1), got {action_horizon!r}"
             )
-        self.action_horizon = action_horizon
-        self.inference_steps = inference_steps
-        self.card = dict(card or {})
-        self.seed = int(seed)
-        self.generator = torch.Generator().manual_seed(self.seed)
-        self._history: list[list[np.ndarray]] = []
-        self._queues: list[list[np.ndarray]] = []
+        return action_horizon
 
     @classmethod
     def load(cls, folder: str | Path, **kwargs: Any) -> DiffusionPolicy:
@@ -118,14 +154,15 @@ class DiffusionPolicy:
             )
         card_path = folder / CARD_FILE
         card = json.loads(card_path.read_text()) if card_path.is_file() else {}
-        return cls(load_model(folder / WEIGHTS_FILE), card=card, **kwargs)
+        first = load_model(folder / FIRST_FILE) if (folder / FIRST_FILE).is_file() else None
+        return cls(load_model(folder / WEIGHTS_FILE), card=card, first=first, **kwargs)
 
     def reset(self, seed: int | None = None) -> None:
         """Forget every slot's history and queue (and reseed the noise if ``seed`` is given)."""
         if seed is not None:
             self.seed = int(seed)
         self.generator = torch.Generator().manual_seed(self.seed)
-        self._history, self._queues = [], []
+        self._history, self._queues, self._skill = [], [], []
 
     def predict(
         self,
@@ -138,26 +175,42 @@ class DiffusionPolicy:
         Sampling is deterministic given the seed either way (DDIM with eta 0)."""
         obs, batched, starts = as_batch(observation, episode_start)
         n = len(starts)
-        inputs = policy_input(obs, self.config.with_features)
         while len(self._history) < n:
             self._history.append([])
             self._queues.append([])
+            self._skill.append(0)
+        done = slide_done(obs) if len(self.skills) > 1 else np.zeros(n, dtype=bool)
+        fresh = np.zeros(n, dtype=bool)
         for i in range(n):
             if starts[i] or not self._history[i]:
-                self._history[i] = [inputs[i]] * self.config.obs_horizon
-                self._queues[i] = []
-            else:
-                self._history[i] = [*self._history[i][1:], inputs[i]]
-        need = [i for i in range(n) if not self._queues[i]]
-        if need:
-            window = torch.from_numpy(np.stack([np.stack(self._history[i]) for i in need]))
-            chunks = self.model.sample(window, self.generator, self.inference_steps).numpy()
-            first, count = self.config.obs_horizon - 1, self.action_horizon
-            for i, chunk in zip(need, chunks, strict=True):
-                actions = chunk_to_actions(chunk, first, count, self.config.actions)
-                self._queues[i] = list(actions)
+                self._skill[i], fresh[i] = 0, True
+            if self._skill[i] < len(self.skills) - 1 and done[i]:
+                self._skill[i], fresh[i] = self._skill[i] + 1, True
+        inputs: dict[bool, np.ndarray] = {}
+        for k, skill in enumerate(self.skills):
+            slots = [i for i in range(n) if self._skill[i] == k]
+            if not slots:
+                continue
+            config = skill.config
+            if config.with_features not in inputs:
+                inputs[config.with_features] = policy_input(obs, config.with_features)
+            rows = inputs[config.with_features]
+            for i in slots:
+                if fresh[i]:
+                    self._history[i] = [rows[i]] * config.obs_horizon
+                    self._queues[i] = []
+                else:
+                    self._history[i] = [*self._history[i][1:], rows[i]]
+            need = [i for i in slots if not self._queues[i]]
+            if need:
+                window = torch.from_numpy(np.stack([np.stack(self._history[i]) for i in need]))
+                chunks = skill.sample(window, self.generator, self.inference_steps).numpy()
+                first, count = config.obs_horizon - 1, self.horizons[k]
+                for i, chunk in zip(need, chunks, strict=True):
+                    actions = chunk_to_actions(chunk, first, count, config.actions)
+                    if config.hand == "binary":
+                        actions[:, -1] = np.where(actions[:, -1] > 0.0, 1.0, -1.0)
+                    self._queues[i] = list(actions)
         actions = np.stack([self._queues[i].pop(0) for i in range(n)])
         actions = np.clip(actions, -1.0, 1.0).astype(np.float32)
-        if self.config.hand == "binary":
-            actions[:, -1] = np.where(actions[:, -1] > 0.0, 1.0, -1.0)
         return (actions if batched else actions[0]), state

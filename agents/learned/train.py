@@ -123,6 +123,7 @@ def train_diffusion(
     progress: bool = True,
     init: Path | None = None,
     only_success: bool = True,
+    first: Path | None = None,
 ) -> dict[str, Any]:
     """Train on Minari ``dataset`` into folder ``out`` (see the module docstring) and return
     the summary that ``policy.json`` also holds. ``env_id``/``env_kwargs``: the env the
@@ -131,7 +132,15 @@ def train_diffusion(
     (with the same configuration). ``init``: a ``policy.pt`` to start from (its weights,
     configuration and normalisation statistics; DAgger's warm start). ``only_success``: train
     on the episodes whose ``success`` flag is set and on DAgger rollouts (False: on every
-    episode); see :func:`~agents.learned.data.load_demonstrations`."""
+    episode); see :func:`~agents.learned.data.load_demonstrations`. ``first``: a sliding
+    skill's ``policy.pt``; the model learns only what follows a finished slide in each
+    episode (``after_slide``) and the saved policy runs ``first`` until then (validation
+    included)."""
+    first_model = None
+    if first is not None:
+        from agents.learned.policy import load_model
+
+        first_model = load_model(Path(first))
     init_model = None
     if init is not None:
         from agents.learned.policy import load_model
@@ -149,7 +158,10 @@ def train_diffusion(
         )
     torch.set_num_threads(1)
     demos = load_demonstrations(
-        dataset, with_features=config.with_features, only_success=only_success
+        dataset,
+        with_features=config.with_features,
+        only_success=only_success,
+        after_slide=first_model is not None,
     )
     if init_model is None:
         config = replace(config, hand=hand_kind(demos.labels))
@@ -178,8 +190,9 @@ def train_diffusion(
     start, train_time, best = 0, 0.0, -1.0
     if resume and ckpt_path.exists():
         blob = torch.load(ckpt_path, map_location="cpu", weights_only=False)
-        saved = (blob["config"], blob["train"], blob.get("only_success", True))
-        if saved != (config.to_json(), _train_json(train), only_success):
+        saved = (blob["config"], blob["train"], blob.get("only_success", True), blob.get("first"))
+        first_key = None if first is None else str(first)
+        if saved != (config.to_json(), _train_json(train), only_success, first_key):
             raise ValueError(
                 f"{str(out)!r} was trained with another configuration ({saved}); resume with "
                 "the same options, or choose another --out"
@@ -207,6 +220,7 @@ def train_diffusion(
             "skipped_episodes": demos.skipped,
             "only_success": bool(only_success),
             "seeds": [min(demos.seeds), max(demos.seeds)],
+            "after_slide": first_model is not None,
         },
         "parameters": sum(p.numel() for p in model.parameters()),
     }
@@ -216,6 +230,7 @@ def train_diffusion(
             "config": config.to_json(),
             "train": _train_json(train),
             "only_success": bool(only_success),
+            "first": None if first is None else str(first),
             "input_dim": model.input_dim,
             "action_dim": model.action_dim,
             "model": model.state_dict(),
@@ -241,7 +256,7 @@ def train_diffusion(
             if val is not None:
                 chosen |= {k: val[k] for k in ("success_rate", "ci95", "episodes", "seeds")}
                 chosen["seeds"] = [val["seeds"][0], val["seeds"][-1]]
-            save_policy(ema.model, out, {**summary, "checkpoint": chosen})
+            save_policy(ema.model, out, {**summary, "checkpoint": chosen}, first_model)
 
     bar = _progress_bar(train.iterations, start, progress)
     losses: list[float] = []
@@ -267,7 +282,11 @@ def train_diffusion(
                 validate = train.val_episodes > 0 and (
                     last or (train.val_every and iteration % train.val_every == 0)
                 )
-                val = _validate(ema.model, env_id, env_kwargs, train) if validate else None
+                val = (
+                    _validate(ema.model, env_id, env_kwargs, train, first_model)
+                    if validate
+                    else None
+                )
                 row = _progress_row(iteration, losses, schedule, train_time, val)
                 bar.set_postfix(loss=f"{row['loss']:.4f}", val=row["val_success_rate"])
                 _append_progress(out / PROGRESS_FILE, row)
@@ -316,12 +335,16 @@ def _train_json(train: TrainConfig) -> dict[str, Any]:
 
 
 def _validate(
-    model: DiffusionModel, env_id: str, env_kwargs: dict[str, Any], train: TrainConfig
+    model: DiffusionModel,
+    env_id: str,
+    env_kwargs: dict[str, Any],
+    train: TrainConfig,
+    first: DiffusionModel | None = None,
 ) -> dict[str, Any]:
     from agents.evaluate import evaluate
 
     model.eval()
-    policy = DiffusionPolicy(model, seed=train.seed)
+    policy = DiffusionPolicy(model, seed=train.seed, first=first)
     return evaluate(
         policy, env_id, episodes=train.val_episodes, seed=train.val_seed, env_kwargs=env_kwargs
     )

@@ -43,6 +43,16 @@ def _cmd_train_dp(args: argparse.Namespace) -> int:
                 "folder written by `slide-gym train-dp`"
             )
         init = Path(args.init) / "policy.pt"
+    first = None
+    if args.after is not None:
+        from agents.learned.policy import is_policy_dir
+
+        if not is_policy_dir(args.after):
+            raise ValueError(
+                f"--after {str(args.after)!r} holds no diffusion policy (no policy.pt); give "
+                "the folder of a sliding policy written by `slide-gym train-dp`"
+            )
+        first = Path(args.after) / "policy.pt"
     dataset = load(args.dataset_id)
     meta = dataset_metadata(dataset)
     summary = train_diffusion(
@@ -52,10 +62,15 @@ def _cmd_train_dp(args: argparse.Namespace) -> int:
         train=train,
         env_id=dataset.spec.env_spec.id,
         env_kwargs=dict(meta.get("env_kwargs") or {}),
-        card={"dataset_id": args.dataset_id, **({"init": str(args.init)} if init else {})},
+        card={
+            "dataset_id": args.dataset_id,
+            **({"init": str(args.init)} if init else {}),
+            **({"after": str(args.after)} if first else {}),
+        },
         resume=args.resume,
         only_success=args.only_success,
         init=init,
+        first=first,
     )
     print(json.dumps({"out": str(args.out), **summary}, indent=2))
     return 0
@@ -166,6 +181,13 @@ def add_parsers(sub: Any) -> None:
         metavar="POLICY_DIR",
         help="start from this trained policy's weights and network (fine-tuning; the "
         "learning rate schedule starts again)",
+    )
+    p.add_argument(
+        "--after",
+        metavar="POLICY_DIR",
+        help="a sliding policy (trained on TopSlide-v0) that acts first: learn only what "
+        "follows a finished slide in each episode (the plate overhanging u* and the pressing "
+        "finger unbent); the saved policy runs POLICY_DIR's skill until then, this one after",
     )
     add_only_success(p, "; DAgger rollouts are kept either way (their labels are the expert's)")
     p.set_defaults(func=_cmd_train_dp)

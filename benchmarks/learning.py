@@ -311,6 +311,16 @@ ROWS = {
             ["--iterations", "10000", "--val-episodes", "10"],
         ),
         Row(
+            "dp-ee-square-grasp-after-slide",
+            "dp",
+            GRASP,
+            {**SQUARE, **EE},
+            "slide-gym/square-grasp-ee-v1",
+            SQUARE_SLIDE,
+            ["--after", "{models}/dp-ee-square-slide-wide", "--iterations", "5000"]
+            + ["--val-every", "2500", "--val-episodes", "10"],
+        ),
+        Row(
             "bc-ee-square-grasp",
             "bc",
             GRASP,

@@ -111,7 +111,7 @@ def test_the_expert_plans_every_attempt_with_the_case_band() -> None:
     expert = agent._new_expert()
     expert.obj = get_object("square")
     attempts = expert._slide_params()
-    assert [name for name, _ in attempts] == ["strict", "relaxed"]
+    assert [name for name, _ in attempts] == ["strict", "relaxed", "turning"]
     assert all(p.dz == (0.005, 0.005) for _, p in attempts)
     assert all(p.projection == "steps" for _, p in attempts)
     agent.close()

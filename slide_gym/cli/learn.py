@@ -33,26 +33,10 @@ def _cmd_train_dp(args: argparse.Namespace) -> int:
         val_every=args.val_every,
         val_episodes=args.val_episodes,
     )
-    init = None
-    if args.init is not None:
-        from agents.learned.policy import is_policy_dir
-
-        if not is_policy_dir(args.init):
-            raise ValueError(
-                f"--init {str(args.init)!r} holds no diffusion policy (no policy.pt); give a "
-                "folder written by `slide-gym train-dp`"
-            )
-        init = Path(args.init) / "policy.pt"
-    first = None
-    if args.after is not None:
-        from agents.learned.policy import is_policy_dir
-
-        if not is_policy_dir(args.after):
-            raise ValueError(
-                f"--after {str(args.after)!r} holds no diffusion policy (no policy.pt); give "
-                "the folder of a sliding policy written by `slide-gym train-dp`"
-            )
-        first = Path(args.after) / "policy.pt"
+    init = _policy_weights(args.init, "--init", "a folder written by `slide-gym train-dp`")
+    first = _policy_weights(
+        args.after, "--after", "the folder of a sliding policy written by `slide-gym train-dp`"
+    )
     dataset = load(args.dataset_id)
     meta = dataset_metadata(dataset)
     summary = train_diffusion(
@@ -74,6 +58,19 @@ def _cmd_train_dp(args: argparse.Namespace) -> int:
     )
     print(json.dumps({"out": str(args.out), **summary}, indent=2))
     return 0
+
+
+def _policy_weights(folder: str | None, option: str, what: str) -> Path | None:
+    """``folder``'s ``policy.pt`` (None without ``folder``); ValueError if it holds none."""
+    if folder is None:
+        return None
+    from agents.learned.policy import WEIGHTS_FILE, is_policy_dir
+
+    if not is_policy_dir(folder):
+        raise ValueError(
+            f"{option} {str(folder)!r} holds no diffusion policy (no {WEIGHTS_FILE}); give {what}"
+        )
+    return Path(folder) / WEIGHTS_FILE
 
 
 def _cmd_dagger(args: argparse.Namespace) -> int:

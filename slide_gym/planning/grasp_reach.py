@@ -12,7 +12,7 @@ IK in pair validation (one half-scale Y on that table: 162 such pairs, 3.9 of it
 edge and keeps the cells where IK converges, widened by one cell on each side so that a cell
 the sampled IK missed next to a reachable one stays in. It is a necessary condition (pair
 validation still checks collisions, the lift and the transfer), computed once per table
-outline and height in a process (about 2 s for a catalog table on one core) and cached.
+outline and height in a process (0.5-1.1 s for a catalog table on one core) and cached.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ import numpy as np
 import shapely
 
 from slide_gym.planning.ik import IKParams, IKTarget, solve_ik
+from slide_gym.planning.pair import side_grasp_rotations
 from slide_gym.robot.kinematics import SHOULDER, WRIST_REACH, WRIST_TO_GRASP, grasp_chain
 
 CELL = 0.02
@@ -33,16 +34,6 @@ stand-offs, 24 at one stand-off found every reachable cell of the four catalog t
 (that one next to a found cell, so the widening keeps it)."""
 SEED = 0
 """The IK restarts' generator seed (the map is the same in every process)."""
-
-
-def _grasp_rotations(n: np.ndarray) -> list[np.ndarray]:
-    """Grasp-frame rotations with the approach axis along ``-n``, palm y up and down."""
-    z_axis = np.array([-n[0], -n[1], 0.0])
-    out = []
-    for up in (1.0, -1.0):
-        y_axis = np.array([0.0, 0.0, up])
-        out.append(np.column_stack([np.cross(y_axis, z_axis), y_axis, z_axis]))
-    return out
 
 
 def reachable_stretches(
@@ -80,7 +71,7 @@ def _stretches(ring_bytes: bytes, grasp_z: float, offset: float) -> tuple:
                 continue
             ok[i] = any(
                 solve_ik(chain, IKTarget(pos, rot), rng, None, params) is not None
-                for rot in _grasp_rotations(n)
+                for rot in side_grasp_rotations(n)
             )
         widened = ok | np.r_[ok[1:], False] | np.r_[False, ok[:-1]]
         start = None

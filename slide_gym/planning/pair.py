@@ -101,11 +101,17 @@ def grasp_poses(
     if s_max - s_tip < 0.5 * p.depth:
         return None
     pos = np.array([*(foot + s_tip * n), z_mid])
+    return [(pos, rot) for rot in side_grasp_rotations(n)]
+
+
+def side_grasp_rotations(n: np.ndarray) -> list[np.ndarray]:
+    """Grasp-frame rotations for a side grasp over an edge with outward normal ``n`` (2,):
+    the approach (z) horizontal along ``-n``, into the table, palm y up and down."""
     z_axis = np.array([-n[0], -n[1], 0.0])
     out = []
     for up in (1.0, -1.0):
         y_axis = np.array([0.0, 0.0, up])
-        out.append((pos, np.column_stack([np.cross(y_axis, z_axis), y_axis, z_axis])))
+        out.append(np.column_stack([np.cross(y_axis, z_axis), y_axis, z_axis]))
     return out
 
 

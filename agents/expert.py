@@ -340,7 +340,7 @@ class SlideGraspExpert:
         return [
             ("strict", strict),
             ("relaxed", relaxed_slide_params(strict)),
-            ("turning", turning_slide_params(strict)),
+            ("turning", turning_slide_params(strict, self.grasp_u_star)),
         ]
 
     def _budget_left(self) -> float:

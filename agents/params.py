@@ -167,12 +167,18 @@ def plate_grasp_u_star(p: ExpertParams, planned: SlideParams, small: bool = Fals
     return min(p.grasp_u_star, p.pinch_u_star) if small else p.grasp_u_star
 
 
-def turning_slide_params(params: SlideParams) -> SlideParams:
+def turning_slide_params(params: SlideParams, grasp_u_star: float) -> SlideParams:
     """Settings for when even the relaxed plan finds no goal configuration: the relaxed ones
-    with any plate turn. A small plate whose far points must face an edge the arm can grasp
-    at may need to turn further than 1.6 rad (in ten half-scale episodes planned in vain
-    with 1.6 rad, six were lifted with any turn)."""
-    return dataclasses.replace(relaxed_slide_params(params), max_rotation=math.pi)
+    with any plate turn, and the planned overhang down to 2 mm above ``grasp_u_star`` (the
+    overhang the plate will be grasped from, :func:`plate_grasp_u_star`). A small plate whose
+    far points must face an edge the arm can grasp at may need to turn further than 1.6 rad
+    (in ten half-scale episodes planned in vain with 1.6 rad, six were lifted with any turn),
+    and a plate reaching little more than u* + 1 cm past its centroid cannot overhang its
+    planned 2.65 cm with the fingertip 1 cm inside the edge."""
+    relaxed = relaxed_slide_params(params)
+    return dataclasses.replace(
+        relaxed, max_rotation=math.pi, u_star=min(relaxed.u_star, grasp_u_star + 0.002)
+    )
 
 
 def relaxed_slide_params(params: SlideParams) -> SlideParams:

@@ -249,9 +249,9 @@ class PairValidator:
         return False, {**info, "reason": reason}
 
     def feasible(self, q_s: np.ndarray, q_g: np.ndarray) -> bool:
-        """The quick half of :meth:`__call__`, no IK and no collision checks: the plate's turn,
-        its overhang and centroid, plate on the grasp line and the grasp within the arm's
-        reach. False: :meth:`__call__` would reject the pair; True decides nothing."""
+        """The quick half of a validation, no IK and no collision checks: the plate's turn, its
+        overhang and centroid, plate on the grasp line and the grasp within the arm's reach.
+        False: calling the validator would reject the pair; True decides nothing."""
         goal = self.object_goal(q_s, q_g)
         if abs(wrap_angle(goal[2] - self.object_start[2])) > self.max_rotation:
             return False

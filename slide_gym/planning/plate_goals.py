@@ -62,7 +62,7 @@ class PlateGoalPoses:
         contact_margin: how far inside the edge a ``contact`` passed to :meth:`sample` must
             lie (m; the planner's ``tip_edge_margin``).
         stretches: the outline's stretches ``(p, q, outward normal)`` a side grasp can reach
-            (:attr:`TopSlideProblem.grasp_stretches`); the plate is aimed at the nearest
+            (``TopSlideProblem.grasp_stretches``); the plate is aimed at the nearest
             point of one of them. None: at the nearest point of the whole outline.
     """
 

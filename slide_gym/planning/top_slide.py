@@ -63,7 +63,7 @@ START_JOINT_TOLERANCE = 0.1
 """rad: ... or changes a joint by more than this."""
 START_TRIES = 5
 """Start roots the regions planner's Init draws, at most, before it gives up on a goal root
-(see :meth:`TopSlidePlanner._start_tries`)."""
+(with plate-first goal roots, whose poses depend on the start root's contact)."""
 
 
 class TopSlidePlanner(Planner):
@@ -388,7 +388,7 @@ class TopSlidePlanner(Planner):
         """Start roots Init may draw before it gives up on a goal root: plate-first goal roots
         depend on the start root's contact (a contact near the plate's rim may leave no goal
         pose that keeps it on the table), so the regions planner draws up to
-        :data:`START_TRIES` of them; one otherwise."""
+        ``START_TRIES`` of them; one otherwise."""
         plate_goals = isinstance(self.goal_region, PlateGoalRegion)
         sampled = self.name == "regions" and self.start_config is None
         return START_TRIES if plate_goals and sampled else 1

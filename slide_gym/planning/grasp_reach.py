@@ -12,7 +12,7 @@ IK in pair validation (one half-scale Y on that table: 162 such pairs, 3.9 of it
 edge and keeps the cells where IK converges, widened by one cell on each side so that a cell
 the sampled IK missed next to a reachable one stays in. It is a necessary condition (pair
 validation still checks collisions, the lift and the transfer), computed once per table
-outline and height in a process (0.5-1.1 s for a catalog table on one core) and cached.
+outline and height in a process (0.4-1.1 s for a catalog table on one core) and cached.
 """
 
 from __future__ import annotations

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -146,3 +146,53 @@ def solve_ik(
         np.linalg.norm(err[:, 3:], axis=1) <= p.rot_tol
     )
     return q[int(np.argmax(done))].copy() if done.any() else None
+
+
+def interpolate_rotation(r0: np.ndarray, r1: np.ndarray, s: float) -> np.ndarray:
+    """The rotation a fraction ``s`` of the way from ``r0`` to ``r1`` (3, 3), about the fixed
+    axis of ``r0.T @ r1`` (spherical linear interpolation)."""
+    rel = r0.T @ r1
+    angle = math.acos(float(np.clip((np.trace(rel) - 1.0) / 2.0, -1.0, 1.0)))
+    if angle < 1e-9:
+        return r0.copy()
+    if angle > math.pi - 1e-6:  # half a turn: the axis is the eigenvector of eigenvalue 1
+        w, v = np.linalg.eigh(rel + rel.T)
+        axis = v[:, int(np.argmax(w))]
+    else:
+        axis = np.array([rel[2, 1] - rel[1, 2], rel[0, 2] - rel[2, 0], rel[1, 0] - rel[0, 1]])
+        axis /= 2.0 * math.sin(angle)
+    k = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+    a = s * angle
+    return r0 @ (np.eye(3) + math.sin(a) * k + (1.0 - math.cos(a)) * (k @ k))
+
+
+def solve_ik_along(
+    chain: FastChain,
+    target: IKTarget,
+    q_from: np.ndarray,
+    steps: int,
+    rng: np.random.Generator,
+    params: IKParams | None = None,
+    deadline: float = math.inf,
+) -> np.ndarray | None:
+    """Joint angles (7,) reaching ``target`` on the IK branch of ``q_from``, or None.
+
+    Walks the tip from its pose at ``q_from`` to ``target`` in ``steps`` equal steps
+    (straight in position, :func:`interpolate_rotation` in orientation; a full-orientation
+    ``target``), each solved from the previous solution alone. The answer is usually the
+    solution nearest ``q_from``, where a batch of random restarts returns whichever
+    converged first, often on another branch.
+    """
+    if target.rotation is None or len(target.axes) != 3:
+        raise ValueError("solve_ik_along needs a target with a full orientation")
+    p = replace(params or IKParams(), n_restarts=1)
+    start = chain.forward(np.asarray(q_from, dtype=float)[None])[0]
+    q: np.ndarray | None = np.asarray(q_from, dtype=float)
+    for k in range(1, steps + 1):
+        s = k / steps
+        pos = (1.0 - s) * start[:3, 3] + s * target.position
+        rot = interpolate_rotation(start[:3, :3], target.rotation, s)
+        q = solve_ik(chain, IKTarget(pos, rot), rng, q[None], p, deadline)
+        if q is None:
+            return None
+    return q

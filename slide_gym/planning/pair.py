@@ -28,7 +28,7 @@ import shapely
 from slide_gym.geometry import ObjectShape, TableShape, overhang, transform_polygon, wrap_angle
 from slide_gym.planning.collision import CollisionChecker
 from slide_gym.planning.constraints import planar_pose
-from slide_gym.planning.ik import IKParams, IKTarget, solve_ik
+from slide_gym.planning.ik import IKParams, IKTarget, solve_ik, solve_ik_along
 from slide_gym.planning.result import OutOfTime, SearchParams
 from slide_gym.planning.se2 import slid_object_pose
 from slide_gym.planning.search import ForestConnectPlanner, SearchFunctions
@@ -126,6 +126,8 @@ def _edges_near(table: shapely.Polygon, part: shapely.Geometry, gap: float = 1e-
 _SEED_ONLY = IKParams(n_restarts=1)
 GRASP_IK_ROUNDS = 3
 """IK rounds per grasp candidate: a round's first converged solution may collide."""
+NEAR_IK_STEPS = 8
+"""Steps of the walk along the arm's IK branch to a re-aimed grasp (``near``)."""
 
 
 class PairValidator:
@@ -196,6 +198,7 @@ class PairValidator:
         centroid_margin: float | None = None,
         transfer_iterations: int | None = None,
         grasp_seeds: np.ndarray | None = None,
+        near: bool = False,
     ) -> tuple[bool, dict[str, Any]]:
         """Is the plate graspable at ``goal`` (x, y, yaw), and reachable from ``q_g``?
 
@@ -204,7 +207,9 @@ class PairValidator:
         ``lifted`` says the fingertip is already off the plate at ``q_g``, so no lift leg;
         ``centroid_margin`` overrides how far inside the table edge the centroid must lie;
         ``transfer_iterations`` the fallback planner's iteration cap; ``grasp_seeds`` (k, 7)
-        extra IK seeds for the grasp, e.g. the grasp planned for a nearby pose).
+        extra IK seeds for the grasp, e.g. the grasp planned for a nearby pose; ``near``: try
+        first the grasp that IK reaches from ``q_g`` alone, the arm's own branch, so that the
+        transfer to it is short).
 
         Every step is bounded by a count (two grasp candidates, IK iterations, straight legs,
         the fallback's iterations). If :attr:`deadline` passes during the check, the answer is
@@ -227,7 +232,7 @@ class PairValidator:
         try:
             seeds = np.vstack([q_g[None], *([] if grasp_seeds is None else [grasp_seeds])])
             for pos, rot in poses:
-                q_grasp = self._grasp_ik(pos, rot, seeds)
+                q_grasp = self._grasp_ik(pos, rot, seeds, near)
                 if q_grasp is None:
                     continue
                 if not self._liftable(q_grasp, pos, rot):
@@ -306,14 +311,33 @@ class PairValidator:
         params = params or self.ik_params
         return solve_ik(chain, target, self.rng, np.atleast_2d(seed), params, self.deadline)
 
-    def _grasp_ik(self, pos: np.ndarray, rot: np.ndarray, seeds: np.ndarray):
+    def _ik_close(self, pos: np.ndarray, rot: np.ndarray, seed: np.ndarray):
+        """IK for the hand a few centimetres from ``seed``'s pose, on its branch if the seed
+        alone converges: a random restart on another branch would make the straight
+        joint-space leg between them sweep the hand far off the short Cartesian move."""
+        q = self._ik(pos, rot, seed, params=_SEED_ONLY)
+        return q if q is not None else self._ik(pos, rot, seed)
+
+    def _grasp_ik(self, pos: np.ndarray, rot: np.ndarray, seeds: np.ndarray, near: bool = False):
         """A collision-free grasp configuration at (``pos``, ``rot``), or None.
+
+        ``near``: first follow the arm's own IK branch from ``seeds[0]``
+        (:func:`~slide_gym.planning.ik.solve_ik_along`). The lowest-index restart to converge
+        wins a batch, often a random one on another branch, and a joint-space transfer
+        between branches sweeps the hand through a wide arc (up to a metre above the table).
 
         The first round solves from ``seeds`` plus random restarts, ``GRASP_IK_ROUNDS`` times
         the usual number in one batch (a batch of 24 costs ~1.3 batches of 8, and most grasps
         that converge at all do so from some restart of it). If its solution puts the arm
         through the table, further rounds with fresh restarts look for another one.
         """
+        if near:
+            target = IKTarget(pos, rot)
+            q = solve_ik_along(
+                self.hand, target, seeds[0], NEAR_IK_STEPS, self.rng, self.ik_params, self.deadline
+            )
+            if q is not None and not self.checker.collides(q, "full"):
+                return q
         wide = replace(self.ik_params, n_restarts=self.ik_params.n_restarts * GRASP_IK_ROUNDS)
         for round_ in range(GRASP_IK_ROUNDS):
             if round_ == 0:
@@ -342,9 +366,11 @@ class PairValidator:
     def _transfer(
         self, q_g, q_grasp, pos, rot, from_lifted=False, max_iterations=None
     ) -> np.ndarray | None:
-        """phi_g -> lifted -> high pre-grasp -> pre-grasp -> grasp (or lifted -> grasp, or a
-        fallback plan of at most ``max_iterations`` iterations); ``from_lifted``: q_g is
-        already off the plate, lifted = q_g. None also once the deadline has passed."""
+        """phi_g -> lifted -> high pre-grasp -> pre-grasp -> grasp (or without the high
+        pre-grasp, or lifted -> grasp, or a fallback plan of at most ``max_iterations``
+        iterations); ``from_lifted``: q_g is already off the plate, lifted = q_g. The
+        pre-grasp stands ``retreat`` back from the grasp, or a half or a quarter of it where
+        the arm cannot reach that far. None also once the deadline has passed."""
         p = self.grasp
         if from_lifted:
             lifted = q_g
@@ -359,16 +385,23 @@ class PairValidator:
             return None
         if self.checker.collides(lifted, "full"):
             return None
-        back = pos - p.retreat * rot[:, 2]
-        pre = self._ik(back, rot, q_grasp)
-        high = self._ik(back + [0.0, 0.0, p.rise], rot, q_grasp) if pre is not None else None
-        routes = [[lifted, high, pre, q_grasp]] if high is not None else []
-        if high is not None:  # the hand first rises clear of the table, then turns around
-            tip = self.tip_chain.forward(lifted)
-            clear_z = max(tip[2, 3], self.table.height + p.clear_height)
-            up = self._ik(np.r_[tip[:2, 3], clear_z], tip[:3, :3], lifted, self.tip_chain)
-            if up is not None:
-                routes.append([lifted, up, high, pre, q_grasp])
+        pre = back = None
+        for retreat in (p.retreat, p.retreat / 2, p.retreat / 4):  # shorter near reach's edge
+            back = pos - retreat * rot[:, 2]
+            pre = self._ik_close(back, rot, q_grasp)
+            if pre is not None:
+                break
+        routes = []
+        if pre is not None:
+            high = self._ik_close(back + [0.0, 0.0, p.rise], rot, pre)
+            if high is not None:  # the hand first rises clear of the table, then turns around
+                routes.append([lifted, high, pre, q_grasp])
+                tip = self.tip_chain.forward(lifted)
+                clear_z = max(tip[2, 3], self.table.height + p.clear_height)
+                up = self._ik(np.r_[tip[:2, 3], clear_z], tip[:3, :3], lifted, self.tip_chain)
+                if up is not None:
+                    routes.append([lifted, up, high, pre, q_grasp])
+            routes.append([lifted, pre, q_grasp])
         routes.append([lifted, q_grasp])  # grasps at the edge of the workspace: no stand-off
         for route in routes:
             if time.perf_counter() >= self.deadline:

@@ -282,6 +282,7 @@ class TopSlidePlanner(Planner):
                 centroid_margin=0.0,
                 transfer_iterations=max_iterations,
                 grasp_seeds=None if grasp_seed is None else np.atleast_2d(grasp_seed),
+                near=True,
             )
         finally:
             self.validator.deadline = saved

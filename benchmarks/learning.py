@@ -321,6 +321,16 @@ ROWS = {
             + ["--val-every", "2500", "--val-episodes", "10"],
         ),
         Row(
+            "dp-ee-square-grasp-after-slide-v2",
+            "dp",
+            GRASP,
+            {**SQUARE, **EE},
+            "slide-gym/square-grasp-ee-v2",
+            SQUARE_SLIDE,
+            ["--after", "{models}/dp-ee-square-slide-wide", "--iterations", "10000"]
+            + ["--val-every", "2500", "--val-episodes", "10"],
+        ),
+        Row(
             "bc-ee-square-grasp",
             "bc",
             GRASP,

@@ -331,6 +331,16 @@ ROWS = {
             + ["--val-every", "2500", "--val-episodes", "10"],
         ),
         Row(
+            "dp-ee-square-grasp-after-slide-axes",
+            "dp",
+            GRASP,
+            {**SQUARE, **EE},
+            "slide-gym/square-grasp-ee-v2",
+            SQUARE_SLIDE,
+            ["--after", "{models}/dp-ee-square-slide-wide", "--tip-axes", "--iterations"]
+            + ["10000", "--val-every", "2500", "--val-episodes", "10"],
+        ),
+        Row(
             "bc-ee-square-grasp",
             "bc",
             GRASP,
@@ -694,7 +704,9 @@ def fit(policy_dir: Path, dataset_id: str, windows: int = 128) -> dict[str, Any]
 
     policy = DiffusionPolicy.load(policy_dir)
     cfg = policy.config
-    demos = load_demonstrations(minari.load_dataset(dataset_id), with_features=cfg.with_features)
+    demos = load_demonstrations(
+        minari.load_dataset(dataset_id), with_features=cfg.with_features, tip_axes=cfg.tip_axes
+    )
     mine = ChunkSampler(demos, cfg.obs_horizon, cfg.pred_horizon, cfg.actions)
     plain = ChunkSampler(demos, cfg.obs_horizon, cfg.pred_horizon, "deltas")
     idx = np.random.default_rng(0).integers(0, len(mine), windows)

@@ -69,6 +69,7 @@ def load_demonstrations(
     dataset: Any,
     *,
     with_features: bool = True,
+    tip_axes: bool = False,
     only_success: bool = True,
     after_slide: bool = False,
 ) -> Demonstrations:
@@ -77,6 +78,7 @@ def load_demonstrations(
     learner did, its labels are the expert's). ``after_slide``: each episode from its first
     step where :func:`~agents.learned.features.slide_done` holds (an episode where it never
     does is skipped), the part a skill that takes over after a slide learns from.
+    ``with_features``, ``tip_axes``: the inputs, as :func:`~agents.learned.features.policy_input`.
     ValueError if none is left."""
     episode_ids = list(range(dataset.total_episodes))
     metas = list(dataset.storage.get_episode_metadata(episode_ids))
@@ -102,7 +104,7 @@ def load_demonstrations(
                 continue
             obs = {k: v[done[0] :] for k, v in obs.items()}
             episode_targets, n = episode_targets[done[0] :], n - int(done[0])
-        inputs.append(policy_input(obs, with_features))
+        inputs.append(policy_input(obs, with_features, tip_axes))
         labels.append(episode_targets)
         lengths.append(n)
         seeds.append(int(meta.get("seed", -1)))

@@ -34,6 +34,8 @@ class DiffusionConfig:
         train_steps: DDPM diffusion steps (squared-cosine schedule).
         inference_steps: DDIM steps when acting.
         with_features: add :func:`agents.learned.features.task_features` to the inputs.
+        tip_axes: add :func:`agents.learned.features.fingertip_axes` to the inputs (a
+            smooth fingertip orientation, for skills that turn the hand).
         obs_embed: size of the learned embedding of the observation history that conditions
             the U-Net (an MLP; 0: the standardised history itself, as in Chi et al.). A
             small embedding makes the FiLM layers, most of the compute, several times
@@ -61,6 +63,7 @@ class DiffusionConfig:
     train_steps: int = 100
     inference_steps: int = 10
     with_features: bool = True
+    tip_axes: bool = False
     actions: str = "deltas"
     scaling: str = "standard"
     obs_embed: int = 0

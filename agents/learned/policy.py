@@ -109,13 +109,10 @@ class DiffusionPolicy:
         self.config = model.config
         # the skills in the order they act: [first,] model
         self.skills = [first.eval(), self.model] if first is not None else [self.model]
-        if first is not None and (first.input_dim, first.action_dim) != (
-            model.input_dim,
-            model.action_dim,
-        ):
+        if first is not None and first.action_dim != model.action_dim:
             raise ValueError(
-                f"the first skill's inputs/actions ({first.input_dim}/{first.action_dim}) "
-                f"differ from the policy's ({model.input_dim}/{model.action_dim})"
+                f"the first skill's actions ({first.action_dim} entries) differ from the "
+                f"policy's ({model.action_dim})"
             )
         self.horizons = [self._action_horizon(m.config, action_horizon) for m in self.skills]
         self.action_horizon = self.horizons[-1]
@@ -186,15 +183,16 @@ class DiffusionPolicy:
                 self._skill[i], fresh[i] = 0, True
             if self._skill[i] < len(self.skills) - 1 and done[i]:
                 self._skill[i], fresh[i] = self._skill[i] + 1, True
-        inputs: dict[bool, np.ndarray] = {}
+        inputs: dict[tuple[bool, bool], np.ndarray] = {}
         for k, skill in enumerate(self.skills):
             slots = [i for i in range(n) if self._skill[i] == k]
             if not slots:
                 continue
             config = skill.config
-            if config.with_features not in inputs:
-                inputs[config.with_features] = policy_input(obs, config.with_features)
-            rows = inputs[config.with_features]
+            key = (config.with_features, config.tip_axes)
+            if key not in inputs:
+                inputs[key] = policy_input(obs, *key)
+            rows = inputs[key]
             for i in slots:
                 if fresh[i]:
                     self._history[i] = [rows[i]] * config.obs_horizon

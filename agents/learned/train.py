@@ -160,6 +160,7 @@ def train_diffusion(
     demos = load_demonstrations(
         dataset,
         with_features=config.with_features,
+        tip_axes=config.tip_axes,
         only_success=only_success,
         after_slide=first_model is not None,
     )

@@ -20,6 +20,7 @@ def _cmd_train_dp(args: argparse.Namespace) -> int:
         channels=tuple(args.channels),
         inference_steps=args.inference_steps,
         with_features=not args.no_features,
+        tip_axes=args.tip_axes,
         actions=args.actions,
         scaling=args.scaling,
         obs_embed=args.obs_embed,
@@ -149,6 +150,12 @@ def add_parsers(sub: Any) -> None:
         "--no-features",
         action="store_true",
         help="leave out the task features (plate in the fingertip frame, edge, overhang)",
+    )
+    p.add_argument(
+        "--tip-axes",
+        action="store_true",
+        help="add the fingertip's x and z axes to the inputs (smooth where its quaternion "
+        "flips sign; for skills that turn the hand)",
     )
     p.add_argument(
         "--actions",

@@ -457,3 +457,50 @@ def test_a_policy_after_a_slide_runs_the_first_skill_until_the_slide_is_done(
     assert calls == ["slide", "grasp", "grasp"]
     policy.predict(obs, episode_start=np.array([True]))
     assert calls[-1] == "slide"  # a new episode starts with the slide again
+
+
+def test_fingertip_axes_stay_smooth_where_the_quaternion_flips_sign():
+    from agents.learned.features import fingertip_axes, policy_input
+
+    angles = np.linspace(2.9, 3.4, 11)  # a turn about z through pi: w crosses zero
+    quat = np.column_stack([np.zeros((11, 2)), np.sin(angles / 2), np.cos(angles / 2)])
+    quat[quat[:, 3] < 0] *= -1  # the sign convention w >= 0 makes the quaternion jump
+    obs = {"fingertip_pose": np.column_stack([np.zeros((11, 3)), quat])}
+    assert np.abs(np.diff(quat, axis=0)).max() > 1.0
+    axes = fingertip_axes(obs)
+    assert axes.shape == (11, 6)
+    assert np.abs(np.diff(axes, axis=0)).max() < 0.1
+    np.testing.assert_allclose(axes[:, 3:], np.tile([0.0, 0.0, 1.0], (11, 1)), atol=1e-6)
+    env = gym.make(ENV_ID)
+    real, _ = env.reset(seed=0)
+    env.close()
+    batch = {k: v[None] for k, v in real.items()}
+    plain, more = policy_input(batch), policy_input(batch, tip_axes=True)
+    assert more.shape[1] == plain.shape[1] + 6
+    np.testing.assert_array_equal(more[:, :-6], plain)
+
+
+def test_a_skill_with_tip_axes_may_follow_a_slide_skill_without(dart, trained, tmp_path):
+    from dataclasses import replace
+
+    from agents.learned.policy import load_model, save_policy
+
+    train_diffusion(
+        dart,
+        tmp_path / "axes",
+        config=replace(TINY, tip_axes=True),
+        train=_config(2),
+        env_id=ENV_ID,
+        env_kwargs={"object": "square", "table": "square"},
+        card={"dataset_id": DATASET},
+        progress=False,
+    )
+    slide, grasp = load_model(trained / "policy.pt"), load_model(tmp_path / "axes" / "policy.pt")
+    assert grasp.config.tip_axes and grasp.input_dim == slide.input_dim + 6
+    save_policy(grasp, tmp_path / "both", {"env_id": ENV_ID}, first=slide)
+    policy = DiffusionPolicy.load(tmp_path / "both")
+    env = gym.make(ENV_ID)
+    obs, _ = env.reset(seed=0)
+    env.close()
+    action, _ = policy.predict(obs, episode_start=np.array([True]))
+    assert action.shape == env.action_space.shape

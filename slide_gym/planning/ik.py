@@ -44,6 +44,10 @@ class IKTarget:
                 raise ValueError(f"IK target axes must be a subset of (0, 1, 2), got {self.axes}")
 
 
+NEAREST_EXTRA_ITERS = 10
+"""Iterations a ``nearest`` IK batch runs on after its first restart converges."""
+
+
 @dataclass(frozen=True)
 class IKParams:
     """Solver settings: restarts, iterations, damping, step limit and tolerances.
@@ -95,12 +99,15 @@ def solve_ik(
     seeds: np.ndarray | None = None,
     params: IKParams | None = None,
     deadline: float = math.inf,
+    nearest: bool = False,
 ) -> np.ndarray | None:
     """Joint angles (7,) reaching ``target``, or None if no restart converged.
 
     The batch holds the given ``seeds`` (k, 7) first, then uniform random restarts drawn from
-    ``rng`` up to ``params.n_restarts``. Returns the lowest-index converged restart. Gives up
-    (None) once ``time.perf_counter()`` passes ``deadline``.
+    ``rng`` up to ``params.n_restarts``. Returns the lowest-index converged restart; with
+    ``nearest`` (and seeds), the batch runs :data:`NEAREST_EXTRA_ITERS` more iterations after
+    the first converges and the converged restart nearest ``seeds[0]`` wins. Gives up (None)
+    once ``time.perf_counter()`` passes ``deadline``.
     """
     p = params or IKParams()
     seeds = np.empty((0, 7)) if seeds is None else np.atleast_2d(np.asarray(seeds, dtype=float))
@@ -108,10 +115,12 @@ def solve_ik(
     q = np.vstack(
         [np.clip(seeds, ARM_LOWER, ARM_UPPER), rng.uniform(ARM_LOWER, ARM_UPPER, (n_rand, 7))]
     )
+    nearest = nearest and len(seeds) > 0
     eye = np.eye(6) * p.damping**2
     partial = target.rotation is not None and len(target.axes) == 1
     checkpoint = np.full(len(q), np.inf)
-    for it in range(p.max_iters):
+    stop_at: int | None = None  # with ``nearest``: the iteration that picks among the converged
+    for it in range(p.max_iters + (NEAREST_EXTRA_ITERS if nearest else 0)):
         if time.perf_counter() >= deadline:
             return None
         tip, jac = chain.jacobian(q)
@@ -119,9 +128,15 @@ def solve_ik(
         pos_n = np.linalg.norm(err[:, :3], axis=1)
         rot_n = np.linalg.norm(err[:, 3:], axis=1)
         done = (pos_n <= p.pos_tol) & (rot_n <= p.rot_tol)
-        if done.any():
+        if done.any() and not nearest:
             return q[int(np.argmax(done))].copy()
-        if it % p.patience == 0:
+        if done.any() and stop_at is None:
+            stop_at = it + NEAREST_EXTRA_ITERS
+        if stop_at is not None and it >= stop_at:
+            break
+        if stop_at is None and it >= p.max_iters:
+            return None
+        if stop_at is None and it % p.patience == 0:
             total = pos_n + rot_n
             if not (total < 0.9 * checkpoint).any():
                 return None  # every restart has stalled: the target is out of their reach
@@ -139,13 +154,19 @@ def solve_ik(
         dq = np.einsum("bji,bj->bi", jac, np.linalg.solve(jjt, err[..., None])[..., 0])
         biggest = np.abs(dq).max(axis=1, keepdims=True)
         dq *= np.minimum(1.0, p.max_step / np.maximum(biggest, 1e-12))
+        dq[done] = 0.0  # a converged restart stays where it converged
         q = np.clip(q + dq, ARM_LOWER, ARM_UPPER)
     tip = chain.forward(q)
     err = pose_error(tip, target)
     done = (np.linalg.norm(err[:, :3], axis=1) <= p.pos_tol) & (
         np.linalg.norm(err[:, 3:], axis=1) <= p.rot_tol
     )
-    return q[int(np.argmax(done))].copy() if done.any() else None
+    if not done.any():
+        return None
+    if nearest:
+        gap = np.where(done, np.linalg.norm(q - seeds[0], axis=1), np.inf)
+        return q[int(np.argmin(gap))].copy()
+    return q[int(np.argmax(done))].copy()
 
 
 def interpolate_rotation(r0: np.ndarray, r1: np.ndarray, s: float) -> np.ndarray:

@@ -322,8 +322,9 @@ class PairValidator:
         """A collision-free grasp configuration at (``pos``, ``rot``), or None.
 
         ``near``: first follow the arm's own IK branch from ``seeds[0]``
-        (:func:`~slide_gym.planning.ik.solve_ik_along`). The lowest-index restart to converge
-        wins a batch, often a random one on another branch, and a joint-space transfer
+        (:func:`~slide_gym.planning.ik.solve_ik_along`), and if that fails take the
+        converged restart nearest ``seeds[0]``. The lowest-index restart to converge wins a
+        batch otherwise, often a random one on another branch, and a joint-space transfer
         between branches sweeps the hand through a wide arc (up to a metre above the table).
 
         The first round solves from ``seeds`` plus random restarts, ``GRASP_IK_ROUNDS`` times
@@ -341,7 +342,8 @@ class PairValidator:
         wide = replace(self.ik_params, n_restarts=self.ik_params.n_restarts * GRASP_IK_ROUNDS)
         for round_ in range(GRASP_IK_ROUNDS):
             if round_ == 0:
-                q = self._ik(pos, rot, seeds, params=wide)
+                target = IKTarget(pos, rot)
+                q = solve_ik(self.hand, target, self.rng, seeds, wide, self.deadline, near)
                 if q is None:
                     return None  # no restart of the wide batch converged
             else:

@@ -341,6 +341,16 @@ ROWS = {
             + ["10000", "--val-every", "2500", "--val-episodes", "10"],
         ),
         Row(
+            "dp-ee-square-grasp-after-slide-v3",
+            "dp",
+            GRASP,
+            {**SQUARE, **EE},
+            "slide-gym/square-grasp-ee-v3",
+            SQUARE_SLIDE,
+            ["--after", "{models}/dp-ee-square-slide-wide", "--tip-axes", "--iterations"]
+            + ["10000", "--val-every", "2500", "--val-episodes", "10"],
+        ),
+        Row(
             "bc-ee-square-grasp",
             "bc",
             GRASP,

@@ -504,3 +504,17 @@ def test_a_skill_with_tip_axes_may_follow_a_slide_skill_without(dart, trained, t
     env.close()
     action, _ = policy.predict(obs, episode_start=np.array([True]))
     assert action.shape == env.action_space.shape
+
+
+def test_the_grasp_skill_benchmark_refuses_a_policy_without_a_slide_skill(trained, capsys):
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "grasp_skill.py"
+    spec = importlib.util.spec_from_file_location("grasp_skill", path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    assert module.main([str(trained), "--episodes", "1"]) == 2
+    assert "not a skill trained with --after" in capsys.readouterr().err
+    assert module.main([str(trained), "--episodes", "0"]) == 2

@@ -348,7 +348,7 @@ ROWS = {
             "slide-gym/square-grasp-ee-v3",
             SQUARE_SLIDE,
             ["--after", "{models}/dp-ee-square-slide-wide", "--tip-axes", "--iterations"]
-            + ["10000", "--val-every", "2500", "--val-episodes", "10"],
+            + ["5000", "--val-every", "2500", "--val-episodes", "10"],
         ),
         Row(
             "bc-ee-square-grasp",

@@ -207,9 +207,9 @@ class PairValidator:
         ``lifted`` says the fingertip is already off the plate at ``q_g``, so no lift leg;
         ``centroid_margin`` overrides how far inside the table edge the centroid must lie;
         ``transfer_iterations`` the fallback planner's iteration cap; ``grasp_seeds`` (k, 7)
-        extra IK seeds for the grasp, e.g. the grasp planned for a nearby pose; ``near``: try
-        first the grasp that IK reaches from ``q_g`` alone, the arm's own branch, so that the
-        transfer to it is short).
+        extra IK seeds for the grasp, e.g. the grasp planned for a nearby pose; ``near``: prefer
+        the grasp on the IK branch of ``q_g``, or the one nearest it, so that the transfer to
+        it is short).
 
         Every step is bounded by a count (two grasp candidates, IK iterations, straight legs,
         the fallback's iterations). If :attr:`deadline` passes during the check, the answer is

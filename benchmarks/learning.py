@@ -351,6 +351,16 @@ ROWS = {
             + ["5000", "--val-every", "2500", "--val-episodes", "10"],
         ),
         Row(
+            "dp-ee-square-grasp-after-slide-offsets",
+            "dp",
+            GRASP,
+            {**SQUARE, **EE},
+            "slide-gym/square-grasp-ee-v3",
+            SQUARE_SLIDE,
+            ["--after", "{models}/dp-ee-square-slide-wide", "--tip-axes", "--actions"]
+            + ["offsets", "--iterations", "5000", "--val-every", "0"],
+        ),
+        Row(
             "bc-ee-square-grasp",
             "bc",
             GRASP,

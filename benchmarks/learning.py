@@ -58,6 +58,25 @@ class Row:
 
 
 SQUARE_SLIDE = {"episodes": 200, "only_success": True}
+
+
+VAL10 = ["--val-episodes", "10"]
+
+
+def _grasp_skill_row(suffix: str, version: str, train: list[str]) -> Row:
+    """A grasping skill trained on square-grasp demonstrations ``version`` after the wide
+    sliding policy (``train-dp --after``)."""
+    return Row(
+        f"dp-ee-square-grasp-after-slide{suffix}",
+        "dp",
+        GRASP,
+        {**SQUARE, **EE},
+        f"slide-gym/square-grasp-ee-{version}",
+        SQUARE_SLIDE,
+        ["--after", "{models}/dp-ee-square-slide-wide", *train],
+    )
+
+
 SEED_GROUPS = {
     "dp-square-slide": ["dp-square-slide", "dp-square-slide-seed1", "dp-square-slide-seed2"],
     "dp-ee-square-slide-10k": [
@@ -310,55 +329,18 @@ ROWS = {
             SQUARE_SLIDE,
             ["--iterations", "10000", "--val-episodes", "10"],
         ),
-        Row(
-            "dp-ee-square-grasp-after-slide",
-            "dp",
-            GRASP,
-            {**SQUARE, **EE},
-            "slide-gym/square-grasp-ee-v1",
-            SQUARE_SLIDE,
-            ["--after", "{models}/dp-ee-square-slide-wide", "--iterations", "5000"]
-            + ["--val-every", "2500", "--val-episodes", "10"],
+        _grasp_skill_row("", "v1", ["--iterations", "5000", "--val-every", "2500", *VAL10]),
+        _grasp_skill_row("-v2", "v2", ["--iterations", "10000", "--val-every", "2500", *VAL10]),
+        _grasp_skill_row(
+            "-axes", "v2", ["--tip-axes", "--iterations", "10000", "--val-every", "2500", *VAL10]
         ),
-        Row(
-            "dp-ee-square-grasp-after-slide-v2",
-            "dp",
-            GRASP,
-            {**SQUARE, **EE},
-            "slide-gym/square-grasp-ee-v2",
-            SQUARE_SLIDE,
-            ["--after", "{models}/dp-ee-square-slide-wide", "--iterations", "10000"]
-            + ["--val-every", "2500", "--val-episodes", "10"],
+        _grasp_skill_row(
+            "-v3", "v3", ["--tip-axes", "--iterations", "5000", "--val-every", "2500", *VAL10]
         ),
-        Row(
-            "dp-ee-square-grasp-after-slide-axes",
-            "dp",
-            GRASP,
-            {**SQUARE, **EE},
-            "slide-gym/square-grasp-ee-v2",
-            SQUARE_SLIDE,
-            ["--after", "{models}/dp-ee-square-slide-wide", "--tip-axes", "--iterations"]
-            + ["10000", "--val-every", "2500", "--val-episodes", "10"],
-        ),
-        Row(
-            "dp-ee-square-grasp-after-slide-v3",
-            "dp",
-            GRASP,
-            {**SQUARE, **EE},
-            "slide-gym/square-grasp-ee-v3",
-            SQUARE_SLIDE,
-            ["--after", "{models}/dp-ee-square-slide-wide", "--tip-axes", "--iterations"]
-            + ["5000", "--val-every", "2500", "--val-episodes", "10"],
-        ),
-        Row(
-            "dp-ee-square-grasp-after-slide-offsets",
-            "dp",
-            GRASP,
-            {**SQUARE, **EE},
-            "slide-gym/square-grasp-ee-v3",
-            SQUARE_SLIDE,
-            ["--after", "{models}/dp-ee-square-slide-wide", "--tip-axes", "--actions"]
-            + ["offsets", "--iterations", "5000", "--val-every", "0"],
+        _grasp_skill_row(
+            "-offsets",
+            "v3",
+            ["--tip-axes", "--actions", "offsets", "--iterations", "5000", "--val-every", "0"],
         ),
         Row(
             "bc-ee-square-grasp",

@@ -124,7 +124,7 @@ def fingertip_axes(obs: Mapping[str, np.ndarray]) -> np.ndarray:
 
     The observation's quaternion changes sign where its w crosses zero, so a hand turning
     from pressing to a side grasp shows a jump of up to 2 in an input that moved smoothly
-    (117 times in the 200 grasp demonstrations' transfers); these columns of its rotation
+    (96 times in the transfers of 200 grasp demonstrations); these columns of its rotation
     matrix move smoothly with it."""
     rot = quat_to_matrix(np.asarray(obs["fingertip_pose"], np.float64)[:, 3:])
     return np.concatenate([rot[:, :, 0], rot[:, :, 2]], axis=1).astype(np.float32)

@@ -335,6 +335,35 @@ def test_one_dagger_round_adds_labelled_steps(dart, trained, tmp_path):
     assert again["rounds"][0]["labelled_steps"] == 24
 
 
+def test_a_dagger_round_of_a_grasp_skill_keeps_its_slide_skill(
+    dart, trained, tmp_path, monkeypatch
+):
+    import agents.learned.data as data
+    from agents.learned.dagger import DaggerConfig, run_dagger
+    from agents.learned.policy import FIRST_FILE, load_model, save_policy
+
+    card = json.loads((trained / "policy.json").read_text())
+    slide = load_model(trained / "policy.pt")
+    save_policy(load_model(trained / "policy.pt"), tmp_path / "skills", {**card, "after": "s"})
+    save_policy(slide, tmp_path / "skills", {**card, "after": "s"}, first=slide)
+    # the slide counts as done from step 10 of every episode (demonstrations and rollout)
+    monkeypatch.setattr(data, "slide_done", lambda obs: np.arange(len(obs["arm_qpos"])) >= 10)
+    config = DaggerConfig(rounds=1, episodes=1, iterations=4, max_steps=16, label_budget=60.0)
+    summary = run_dagger(
+        tmp_path / "skills", tmp_path / "d", "test/dagger-after-v0", config, workers=1
+    )
+    out = tmp_path / "d" / "round-1" / "policy"
+    assert summary["policy"] == str(out)
+    kept = load_model(out / FIRST_FILE)
+    for name, value in slide.state_dict().items():  # the slide skill is not trained again
+        torch.testing.assert_close(kept.state_dict()[name], value)
+    policy_card = json.loads((out / "policy.json").read_text())
+    assert policy_card["after"] == "s" and policy_card["demonstrations"]["after_slide"]
+    lengths = [len(e.actions) for e in read_episodes(load("test/dagger-after-v0"))]
+    assert lengths[-1] == 16  # the rollout is stored whole; training skips its first 10 steps
+    assert policy_card["demonstrations"]["frames"] == sum(n - 10 for n in lengths)
+
+
 @pytest.mark.parametrize(
     ("args", "needle"),
     [

@@ -15,7 +15,10 @@ Each episode is kept like a collected one (executed actions, so a reset with its
 options replays it exactly; the labels in ``infos["expert_action"]``; ``dagger_round`` in
 its metadata), staged under ``OUT/round-R/episodes`` as it finishes (a rerun resumes), and
 after each round the base dataset and every round so far are built into one Minari dataset,
-on which the policy is trained again, warm-started from the previous round's weights.
+on which the policy is trained again, warm-started from the previous round's weights. A
+grasping skill that follows a sliding skill (``train-dp --after``) keeps that sliding skill,
+and only its own part is trained again: what follows the finished slide in each episode,
+demonstrations and rollouts alike.
 """
 
 from __future__ import annotations
@@ -32,7 +35,7 @@ import numpy as np
 
 from agents.expert import PHASES
 from agents.learned.labeler import PlanLabeler
-from agents.learned.policy import DiffusionPolicy, is_policy_dir
+from agents.learned.policy import FIRST_FILE, DiffusionPolicy, is_policy_dir
 from slide_gym.datasets.config import CollectConfig, check_dataset_id
 from slide_gym.datasets.recording import (
     LABEL_KEY,
@@ -287,6 +290,8 @@ def run_dagger(
         finally:
             env.close()
         policy_out = stage / "policy"
+        slide_skill = current / FIRST_FILE
+        after = {"after": card["after"]} if "after" in card else {}
         summary = train_diffusion(
             dataset,
             policy_out,
@@ -298,10 +303,11 @@ def run_dagger(
             ),
             env_id=collect.env_id,
             env_kwargs=collect.env_kwargs(),
-            card={"dataset_id": dataset_id, "dagger_round": r, "init": str(current)},
+            card={"dataset_id": dataset_id, "dagger_round": r, "init": str(current), **after},
             resume=(policy_out / "checkpoint.pt").exists(),
             init=current / "policy.pt",
             progress=progress,
+            first=slide_skill if slide_skill.is_file() else None,
         )
         queries = sum(int(x["label_queries"]) for x in results)
         rows.append(

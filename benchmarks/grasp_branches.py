@@ -1,0 +1,93 @@
+"""How far apart the expert's grasps lie in joint space, across a dataset's demonstrations.
+
+A grasping skill learns to move the arm from where the slide ended (the first step where
+:func:`agents.learned.features.slide_done` holds) to where the expert closes the hand. This
+prints, over the dataset's successful episodes, the arm's joints at both moments (mean and
+spread), the largest joint move between them, the steps it takes, and how the grasps split
+over IK branches (the signs of joints 1, 3, 5 and 7, the WAM's redundant rotations):
+
+    python benchmarks/grasp_branches.py slide-gym/square-grasp-v1
+
+With ``--json`` it prints one JSON object instead.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from collections import Counter
+from typing import Any
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402 - after the thread setting
+
+BRANCH_JOINTS = (0, 2, 4, 6)
+"""Joints 1, 3, 5, 7 (0-based): the sign pattern that tells the grasps' IK branches apart."""
+
+
+def grasp_spread(dataset_id: str) -> dict[str, Any]:
+    """Joint-space statistics of the hand-off-to-grasp moves in ``dataset_id``."""
+    import minari
+
+    from agents.learned.features import slide_done
+
+    dataset = minari.load_dataset(dataset_id)
+    ids = list(range(dataset.total_episodes))
+    metas = list(dataset.storage.get_episode_metadata(ids))
+    handoff, grasp, steps = [], [], []
+    for meta, episode in zip(metas, dataset.iterate_episodes(ids), strict=True):
+        record = meta["record"]
+        record = json.loads(record) if isinstance(record, str) else record
+        closes = [int(k) for phase, k in record["phase_steps"] if phase == "close"]
+        done = slide_done(episode.observations)
+        if not meta.get("success") or not closes or not done.any():
+            continue
+        start, close = int(np.argmax(done)), closes[-1]
+        handoff.append(episode.observations["arm_qpos"][start])
+        grasp.append(episode.observations["arm_qpos"][close])
+        steps.append(close - start)
+    if not grasp:
+        raise ValueError(f"{dataset_id!r} holds no successful episode with a grasp")
+    q0, q1 = np.array(handoff), np.array(grasp)
+    move = np.abs(q1 - q0).max(axis=1)
+    branches = Counter("".join("+" if v >= 0 else "-" for v in q[list(BRANCH_JOINTS)]) for q in q1)
+
+    def rounded(a: np.ndarray) -> list[float]:
+        return [round(float(v), 2) for v in a]
+
+    return {
+        "dataset": dataset_id,
+        "episodes": len(grasp),
+        "handoff_q_mean": rounded(q0.mean(0)),
+        "handoff_q_std": rounded(q0.std(0)),
+        "grasp_q_mean": rounded(q1.mean(0)),
+        "grasp_q_std": rounded(q1.std(0)),
+        "largest_joint_move_rad_p10_p50_p90": rounded(np.percentile(move, [10, 50, 90])),
+        "steps_to_close_p10_p50_p90": rounded(np.percentile(steps, [10, 50, 90])),
+        "branches": dict(branches.most_common()),
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("dataset", help="a local Minari dataset id of grasp demonstrations")
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    args = parser.parse_args(argv)
+    try:
+        result = grasp_spread(args.dataset)
+    except (ValueError, FileNotFoundError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    if args.json:
+        print(json.dumps(result))
+        return 0
+    for key, value in result.items():
+        print(f"{key}: {value}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -3,8 +3,9 @@
 A grasping skill learns to move the arm from where the slide ended (the first step where
 :func:`agents.learned.features.slide_done` holds) to where the expert closes the hand. This
 prints, over the dataset's successful episodes, the arm's joints at both moments (mean and
-spread), the largest joint move between them, the steps it takes, and how the grasps split
-over IK branches (the signs of joints 1, 3, 5 and 7, the WAM's redundant rotations):
+spread, and the grasp's range), the largest joint move between them, the steps it takes, the
+expert's phase at the hand-off and how many episodes press again after it, and how the grasps
+split over IK branches (the signs of joints 1, 3, 5 and 7, the WAM's redundant rotations):
 
     python benchmarks/grasp_branches.py slide-gym/square-grasp-v1
 
@@ -37,7 +38,7 @@ def grasp_spread(dataset_id: str) -> dict[str, Any]:
     dataset = minari.load_dataset(dataset_id)
     ids = list(range(dataset.total_episodes))
     metas = list(dataset.storage.get_episode_metadata(ids))
-    handoff, grasp, steps = [], [], []
+    handoff, grasp, steps, phases, pressed_again = [], [], [], Counter(), 0
     for meta, episode in zip(metas, dataset.iterate_episodes(ids), strict=True):
         record = meta["record"]
         record = json.loads(record) if isinstance(record, str) else record
@@ -46,6 +47,8 @@ def grasp_spread(dataset_id: str) -> dict[str, Any]:
         if not meta.get("success") or not closes or not done.any():
             continue
         start, close = int(np.argmax(done)), closes[-1]
+        phases[max((k, p) for p, k in record["phase_steps"] if int(k) <= start)[1]] += 1
+        pressed_again += any(p == "press" and int(k) > start for p, k in record["phase_steps"])
         handoff.append(episode.observations["arm_qpos"][start])
         grasp.append(episode.observations["arm_qpos"][close])
         steps.append(close - start)
@@ -65,6 +68,10 @@ def grasp_spread(dataset_id: str) -> dict[str, Any]:
         "handoff_q_std": rounded(q0.std(0)),
         "grasp_q_mean": rounded(q1.mean(0)),
         "grasp_q_std": rounded(q1.std(0)),
+        "grasp_q_min": rounded(q1.min(0)),
+        "grasp_q_max": rounded(q1.max(0)),
+        "phase_at_handoff": dict(phases.most_common()),
+        "pressed_again_after_handoff": pressed_again,
         "largest_joint_move_rad_p10_p50_p90": rounded(np.percentile(move, [10, 50, 90])),
         "steps_to_close_p10_p50_p90": rounded(np.percentile(steps, [10, 50, 90])),
         "branches": dict(branches.most_common()),

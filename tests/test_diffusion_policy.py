@@ -344,7 +344,6 @@ def test_a_dagger_round_of_a_grasp_skill_keeps_its_slide_skill(
 
     card = json.loads((trained / "policy.json").read_text())
     slide = load_model(trained / "policy.pt")
-    save_policy(load_model(trained / "policy.pt"), tmp_path / "skills", {**card, "after": "s"})
     save_policy(slide, tmp_path / "skills", {**card, "after": "s"}, first=slide)
     # the slide counts as done from step 10 of every episode (demonstrations and rollout)
     monkeypatch.setattr(data, "slide_done", lambda obs: np.arange(len(obs["arm_qpos"])) >= 10)

@@ -75,7 +75,12 @@ from slide_gym.planning.api import (
     solve_ik,
 )
 from slide_gym.planning.result import PlanResult, PlanStatus
-from slide_gym.robot.kinematics import FastChain, fingertip_chain, grasp_chain
+from slide_gym.robot.kinematics import (
+    FastChain,
+    fingertip_chain,
+    grasp_chain,
+    mirrored_postures,
+)
 from slide_gym.robot.model import ARM_LOWER, ARM_UPPER, READY_ARM_Q
 
 LOW_TIP_HEIGHT = 0.03
@@ -172,6 +177,8 @@ class SlideGraspExpert:
         self._steps = 0  # actions returned so far
         self._taken_over = False  # the first observation's state has been read
         self.grasp_seed: np.ndarray | None = None  # the plan's grasp, an IK seed for re-aiming
+        posture = params.grasp_posture  # re-aimed grasps: the IK solution nearest these
+        self.grasp_postures = None if posture is None else mirrored_postures(np.array(posture))
         self.target: np.ndarray | None = None  # the last action's joint target
         self.object_start: np.ndarray | None = None  # the plate's pose the plan started from
         self._before: tuple[np.ndarray, np.ndarray | None] | None = None  # see follow
@@ -683,6 +690,7 @@ class SlideGraspExpert:
             max_iterations=self.params.grasp_iterations,
             time_budget=budget,
             grasp_seed=grasp_seed,
+            postures=self.grasp_postures,
         )
         self.report.planning_time_s += time.perf_counter() - t0
         return ok, info

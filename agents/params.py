@@ -7,8 +7,10 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from slide_gym.planning.api import GraspParams, SlideParams
-from slide_gym.robot.model import MIN_CONTACT_SIZE
+from slide_gym.robot.model import ARM_LOWER, ARM_UPPER, MIN_CONTACT_SIZE
 
 EXPERT_SLIDE_PARAMS = SlideParams(
     dz=(0.012, 0.02),
@@ -41,6 +43,13 @@ EXPERT_SLIDE_PARAMS = SlideParams(
   goals (:func:`plate_slide_params`)."""
 
 
+GRASP_POSTURE = (-1.07, 1.73, 0.74, 1.26, 0.25, 1.46, -0.86)
+"""An arm posture for a side grasp of a plate overhanging an edge beside the base (grasp
+frame near (0.49, -0.26, 0.01) m, approaching along +y, palm up): the median grasp of the
+tightest of the six IK branches the expert's square-table grasps used when it took the
+solution nearest the arm's sliding configuration. The expert grasps on the branch nearest
+it or its mirror images (:func:`~slide_gym.robot.kinematics.mirrored_postures`)."""
+
 _COUNTS = ("max_replans", "strict_plan_iterations", "grasp_iterations", "route_iterations")
 """The integer fields of :class:`ExpertParams`: caps that count work, never time."""
 
@@ -71,6 +80,12 @@ class ExpertParams:
     - ``route_iterations``: iterations of the joint-space route planner for the approach to
       the press point when neither the direct move nor a move via a raised pose is free (2 of
       72 episodes, both replans; before, the expert took the colliding route anyway).
+
+    ``grasp_posture`` (7 joint angles, or None): the re-aimed grasp is the IK solution
+    nearest this posture or its mirror images, so that demonstrations of similar plate poses
+    end in similar grasps, which a learner can imitate; None takes the solution nearest the
+    arm's own IK branch after the slide (the grasps then spread over the branches that the
+    sliding configurations happened to be on).
     """
 
     approach_speed: float = 1.0  # rad/s, free-space joint speed
@@ -102,15 +117,29 @@ class ExpertParams:
     min_centroid_margin: float = 0.005  # m, for plates too small for the full margin
     grasp_u_star: float = MIN_CONTACT_SIZE + 0.002  # m, least real overhang to grasp (u* + 2 mm)
     pinch_u_star: float = 0.0175  # m, least overhang measured to pinch and lift (small plates)
+    grasp_posture: tuple[float, ...] | None = GRASP_POSTURE
 
     def __post_init__(self) -> None:
         for name, value in dataclasses.asdict(self).items():
-            if name in _COUNTS:
+            if name == "grasp_posture":
+                _check_posture(value)
+            elif name in _COUNTS:
                 least = 0 if name == "max_replans" else 1
                 if isinstance(value, bool) or not isinstance(value, int) or value < least:
                     raise ValueError(f"{name} must be an integer >= {least}, got {value!r}")
             elif not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ValueError(f"ExpertParams.{name} must be a finite positive number: {value}")
+
+
+def _check_posture(value: tuple[float, ...] | None) -> None:
+    if value is None:
+        return
+    q = np.asarray(value, dtype=float)
+    if q.shape != (7,) or not ((q >= ARM_LOWER) & (q <= ARM_UPPER)).all():
+        raise ValueError(
+            f"grasp_posture must be 7 joint angles within the arm's limits "
+            f"{ARM_LOWER.tolist()} .. {ARM_UPPER.tolist()}, or None: {value!r}"
+        )
 
 
 def plate_slide_params(sp: SlideParams, p: ExpertParams, circumradius: float) -> SlideParams:

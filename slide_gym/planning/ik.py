@@ -100,14 +100,16 @@ def solve_ik(
     params: IKParams | None = None,
     deadline: float = math.inf,
     nearest: bool = False,
+    reference: np.ndarray | None = None,
 ) -> np.ndarray | None:
     """Joint angles (7,) reaching ``target``, or None if no restart converged.
 
     The batch holds the given ``seeds`` (k, 7) first, then uniform random restarts drawn from
     ``rng`` up to ``params.n_restarts``. Returns the lowest-index converged restart; with
     ``nearest`` (and seeds), the batch runs :data:`NEAREST_EXTRA_ITERS` more iterations after
-    the first converges and the converged restart nearest ``seeds[0]`` wins. Gives up (None)
-    once ``time.perf_counter()`` passes ``deadline``.
+    the first converges and the converged restart nearest ``seeds[0]`` wins, or the one
+    nearest any row of ``reference`` (r, 7) where given. Gives up (None) once
+    ``time.perf_counter()`` passes ``deadline``.
     """
     p = params or IKParams()
     seeds = np.empty((0, 7)) if seeds is None else np.atleast_2d(np.asarray(seeds, dtype=float))
@@ -164,7 +166,9 @@ def solve_ik(
     if not done.any():
         return None
     if nearest:
-        gap = np.where(done, np.linalg.norm(q - seeds[0], axis=1), np.inf)
+        ref = seeds[:1] if reference is None else np.atleast_2d(reference)
+        near = np.linalg.norm(q[:, None, :] - ref[None], axis=2).min(axis=1)
+        gap = np.where(done, near, np.inf)
         return q[int(np.argmin(gap))].copy()
     return q[int(np.argmax(done))].copy()
 

@@ -199,6 +199,7 @@ class PairValidator:
         transfer_iterations: int | None = None,
         grasp_seeds: np.ndarray | None = None,
         near: bool = False,
+        postures: np.ndarray | None = None,
     ) -> tuple[bool, dict[str, Any]]:
         """Is the plate graspable at ``goal`` (x, y, yaw), and reachable from ``q_g``?
 
@@ -209,7 +210,9 @@ class PairValidator:
         ``transfer_iterations`` the fallback planner's iteration cap; ``grasp_seeds`` (k, 7)
         extra IK seeds for the grasp, e.g. the grasp planned for a nearby pose; ``near``: prefer
         the grasp on the IK branch of ``q_g``, or the one nearest it, so that the transfer to
-        it is short).
+        it is short; ``postures`` (r, 7): prefer instead the grasp nearest any of these arm
+        postures, so that grasps of nearby plate poses lie on one IK branch whatever the arm
+        did before).
 
         Every step is bounded by a count (two grasp candidates, IK iterations, straight legs,
         the fallback's iterations). If :attr:`deadline` passes during the check, the answer is
@@ -232,7 +235,7 @@ class PairValidator:
         try:
             seeds = np.vstack([q_g[None], *([] if grasp_seeds is None else [grasp_seeds])])
             for pos, rot in poses:
-                q_grasp = self._grasp_ik(pos, rot, seeds, near)
+                q_grasp = self._grasp_ik(pos, rot, seeds, near, postures)
                 if q_grasp is None:
                     continue
                 if not self._liftable(q_grasp, pos, rot):
@@ -318,7 +321,14 @@ class PairValidator:
         q = self._ik(pos, rot, seed, params=_SEED_ONLY)
         return q if q is not None else self._ik(pos, rot, seed)
 
-    def _grasp_ik(self, pos: np.ndarray, rot: np.ndarray, seeds: np.ndarray, near: bool = False):
+    def _grasp_ik(
+        self,
+        pos: np.ndarray,
+        rot: np.ndarray,
+        seeds: np.ndarray,
+        near: bool = False,
+        postures: np.ndarray | None = None,
+    ):
         """A collision-free grasp configuration at (``pos``, ``rot``), or None.
 
         ``near``: first follow the arm's own IK branch from ``seeds[0]``
@@ -326,13 +336,18 @@ class PairValidator:
         converged restart nearest ``seeds[0]``. The lowest-index restart to converge wins a
         batch otherwise, often a random one on another branch, and a joint-space transfer
         between branches sweeps the hand through a wide arc (up to a metre above the table).
+        ``postures`` (r, 7) replace both: the first round also starts from them, and its
+        converged restart nearest any of them wins.
 
         The first round solves from ``seeds`` plus random restarts, ``GRASP_IK_ROUNDS`` times
         the usual number in one batch (a batch of 24 costs ~1.3 batches of 8, and most grasps
         that converge at all do so from some restart of it). If its solution puts the arm
         through the table, further rounds with fresh restarts look for another one.
         """
-        if near:
+        if postures is not None:
+            postures = np.atleast_2d(np.asarray(postures, dtype=float))
+            seeds, near = np.vstack([postures, seeds]), False
+        elif near:
             target = IKTarget(pos, rot)
             q = solve_ik_along(
                 self.hand, target, seeds[0], NEAR_IK_STEPS, self.rng, self.ik_params, self.deadline
@@ -343,7 +358,10 @@ class PairValidator:
         for round_ in range(GRASP_IK_ROUNDS):
             if round_ == 0:
                 target = IKTarget(pos, rot)
-                q = solve_ik(self.hand, target, self.rng, seeds, wide, self.deadline, near)
+                nearest = near or postures is not None
+                q = solve_ik(
+                    self.hand, target, self.rng, seeds, wide, self.deadline, nearest, postures
+                )
                 if q is None:
                     return None  # no restart of the wide batch converged
             else:

@@ -255,6 +255,7 @@ class TopSlidePlanner(Planner):
         max_iterations: int | None = None,
         time_budget: float = math.inf,
         grasp_seed: Any = None,
+        postures: Any = None,
     ) -> tuple[bool, dict[str, Any]]:
         """Re-aim the side grasp at a measured plate pose (x, y, yaw) after a real slide.
 
@@ -265,7 +266,10 @@ class TopSlidePlanner(Planner):
         iterations of the fallback transfer planner per candidate (None:
         ``GraspParams.transfer_iterations``). ``time_budget`` (seconds, inf: none) is only a
         give-up: a check it interrupts answers ``info["timeout"] = True``. ``grasp_seed`` (7,):
-        an extra IK seed for the grasp, such as the plan's ``extra["grasp_config"]``. Returns
+        an extra IK seed for the grasp, such as the plan's ``extra["grasp_config"]``.
+        ``postures`` (r, 7): take the grasp nearest any of these arm postures (see
+        :func:`~slide_gym.robot.kinematics.mirrored_postures`) rather than the one nearest
+        ``q_from``'s IK branch. Returns
         ``(ok, info)``; ``info["transfer_path"]`` runs from ``q_from`` to the grasp,
         ``info["reason"]`` says why not.
         """
@@ -283,6 +287,7 @@ class TopSlidePlanner(Planner):
                 transfer_iterations=max_iterations,
                 grasp_seeds=None if grasp_seed is None else np.atleast_2d(grasp_seed),
                 near=True,
+                postures=None if postures is None else np.atleast_2d(postures),
             )
         finally:
             self.validator.deadline = saved

@@ -359,3 +359,23 @@ def grasp_chain() -> FastChain:
     offset = np.eye(4)
     offset[2, 3] = GRASP_DEPTH_IN_HAND
     return FastChain(robot_chain("wam_flange"), offset)
+
+
+MIRROR_SIGNS = np.array([-1.0, 1.0, -1.0, 1.0, -1.0, 1.0, -1.0])
+"""Negating joints 1, 3, 5 and 7 mirrors the WAM's pose in the base's xz plane."""
+
+
+def mirrored_postures(q: np.ndarray) -> np.ndarray:
+    """``q`` (7,), its mirror image in the base's xz plane, and both with the hand turned half
+    a revolution about its approach axis (joint 7 +- pi, palm up and down): (4, 7).
+
+    Side grasps of a plate on either side of the base, palm up or down, each have one of these
+    postures nearby, so "the IK solution nearest them" picks the same branch for all.
+    """
+    q = np.asarray(q, dtype=float)
+    if q.shape != (7,) or not np.isfinite(q).all():
+        raise ValueError(f"a posture is 7 finite joint angles, got {q!r}")
+    both = np.stack([q, q * MIRROR_SIGNS])
+    turned = both.copy()
+    turned[:, 6] -= np.copysign(math.pi, turned[:, 6])  # the half turn that stays in +-pi
+    return np.vstack([both, turned])

@@ -233,6 +233,28 @@ ROWS = {
             ],
         ),
         Row(
+            "dp-square-grasp-v2-10k",
+            "dp",
+            GRASP,
+            SQUARE,
+            "slide-gym/square-grasp-v2",
+            SQUARE_SLIDE,
+            ["--iterations", "10000", "--val-every", "2500", *VAL10],
+        ),
+        Row(
+            "dp-square-grasp-v2-after-slide",
+            "dp",
+            GRASP,
+            SQUARE,
+            "slide-gym/square-grasp-v2",
+            SQUARE_SLIDE,
+            [
+                "--after",
+                "{models}/dp-square-slide-10k",
+                *["--iterations", "10000", "--val-every", "2500", *VAL10],
+            ],
+        ),
+        Row(
             "dp-dagger-square-grasp-after-slide",
             "dp-dagger",
             GRASP,

@@ -264,6 +264,16 @@ ROWS = {
             ["--rounds", "1", "--episodes", "40", "--workers", "2"],
             base="dp-square-grasp-after-slide",
         ),
+        Row(
+            "dp-dagger-square-grasp-v2-after-slide",
+            "dp-dagger",
+            GRASP,
+            SQUARE,
+            "slide-gym/square-grasp-dagger-v2",
+            {},
+            ["--rounds", "1", "--episodes", "20", "--workers", "2", "--max-steps", "700"],
+            base="dp-square-grasp-v2-after-slide",
+        ),
         Row("expert-catalog-slide", "expert", SLIDE, CATALOG),
         Row(
             "dp-catalog-slide",
@@ -756,10 +766,16 @@ def _plot_curves(out: Path) -> None:
     plt.close(fig)
 
 
-def fit(policy_dir: Path, dataset_id: str, windows: int = 128) -> dict[str, Any]:
+def fit(
+    policy_dir: Path, dataset_id: str, windows: int = 128, at_start: bool = False
+) -> dict[str, Any]:
     """How well a policy reproduces its demonstrations: ``windows`` training windows (seeded),
     the executed part of a sampled chunk against the labels (mean absolute error per action
-    entry, in action units), with 10, 50 and 100 DDIM steps."""
+    entry, in action units), with 10, 50 and 100 DDIM steps. A grasping skill (``train-dp
+    --after``) is fitted on what follows each slide, as it was trained. ``at_start``: the
+    first window of each episode instead (a skill's hand-off), up to ``windows`` of them; the
+    answer then also counts the windows whose executed chunk moves joint 2 the other way
+    than the labels do (with 10 DDIM steps)."""
     import minari
     import numpy as np
     import torch
@@ -770,11 +786,19 @@ def fit(policy_dir: Path, dataset_id: str, windows: int = 128) -> dict[str, Any]
     policy = DiffusionPolicy.load(policy_dir)
     cfg = policy.config
     demos = load_demonstrations(
-        minari.load_dataset(dataset_id), with_features=cfg.with_features, tip_axes=cfg.tip_axes
+        minari.load_dataset(dataset_id),
+        with_features=cfg.with_features,
+        tip_axes=cfg.tip_axes,
+        after_slide="after" in policy.card,
     )
     mine = ChunkSampler(demos, cfg.obs_horizon, cfg.pred_horizon, cfg.actions)
     plain = ChunkSampler(demos, cfg.obs_horizon, cfg.pred_horizon, "deltas")
-    idx = np.random.default_rng(0).integers(0, len(mine), windows)
+    if at_start:
+        if mine.dropped:
+            raise ValueError("--at-start needs a dataset without dropped labels")
+        idx = demos.starts[:windows]
+    else:
+        idx = np.random.default_rng(0).integers(0, len(mine), windows)
     obs = torch.from_numpy(mine.inputs[mine.obs_rows[idx]])
     first, count = cfg.obs_horizon - 1, cfg.action_horizon
     want = plain.chunks[idx][:, first : first + count]
@@ -783,6 +807,9 @@ def fit(policy_dir: Path, dataset_id: str, windows: int = 128) -> dict[str, Any]
         chunks = policy.model.sample(obs, torch.Generator().manual_seed(0), steps=steps).numpy()
         got = np.stack([chunk_to_actions(c, first, count, cfg.actions) for c in chunks])
         out[f"error_{steps}_steps"] = float(np.abs(got - want).mean())
+        if at_start and steps == 10:
+            turn = np.sign(got[:, :, 1].sum(1)) != np.sign(want[:, :, 1].sum(1))
+            out["windows"], out["joint2_reversed_10_steps"] = len(idx), int(turn.sum())
     return out
 
 
@@ -803,6 +830,8 @@ def main() -> int:
     p = sub.add_parser("fit", help="a policy's action error on its training windows")
     p.add_argument("policies", nargs="+", type=Path, metavar="DIR")
     p.add_argument("--dataset", required=True, metavar="ID")
+    p.add_argument("--windows", type=int, default=128, metavar="N")
+    p.add_argument("--at-start", action="store_true", help="each episode's first window")
     p = sub.add_parser("report", help="learning.md and learning_curves.png from the rows")
     p.add_argument("--out", type=Path, default=OUT)
     args = parser.parse_args()
@@ -813,7 +842,7 @@ def main() -> int:
         horizons(ROWS[args.row], args.models, args.out, args.horizons, args.episodes)
     elif args.cmd == "fit":
         for path in args.policies:
-            print(json.dumps(fit(path, args.dataset)))
+            print(json.dumps(fit(path, args.dataset, args.windows, args.at_start)))
     elif args.cmd == "run":
         for name in args.rows:
             record = run(ROWS[name], args.models, args.out)

@@ -13,7 +13,8 @@ and each episode's hand-off step, length and outcome. With ``--trace`` each seed
 run by the expert alone (the same slide, then its own grasp), and each episode also records
 how near the skill came to the expert's grasp: the least largest-joint gap and grasp-frame
 distance over its steps, the step it first closed the hand and its gaps there, and how far
-the plate moved after the hand-off.
+the plate moved after the hand-off. ``--report`` prints, for every run in ``--out``, how its
+episodes ended (:func:`outcomes`).
 """
 
 from __future__ import annotations
@@ -127,21 +128,53 @@ def run(folder: Path, episodes: int, seed: int, trace: bool = False) -> dict[str
         "ci95": list(wilson_interval(wins, episodes)),
         "seeds": [seed, seed + episodes - 1],
         "results": results,
+        "max_steps": env.spec.max_episode_steps or 1200,
         "code_version": code_version(),
+    }
+
+
+def outcomes(record: dict[str, Any]) -> dict[str, Any]:
+    """How a run's episodes ended: lifted, out of time (with the grasp-frame gap where the
+    skill first closed the hand, if traced), or the plate lost (and how many of those within
+    100 steps of the hand-off)."""
+    limit = int(record.get("max_steps", 1200))
+    rows = record["results"]
+    late = [r for r in rows if not r["success"] and r["length"] >= limit]
+    lost = [r for r in rows if not r["success"] and r["length"] < limit]
+    early = [r for r in lost if r["handed_over"] is not None]
+    early = [r for r in early if r["length"] - r["handed_over"] <= 100]
+    return {
+        "policy": record["policy"],
+        "code_version": record["code_version"],
+        "episodes": len(rows),
+        "lifted": sum(r["success"] for r in rows),
+        "out_of_time": len(late),
+        "out_of_time_gap_at_close_m": sorted(
+            r["gaps_at_close"][1] for r in late if "gaps_at_close" in r
+        ),
+        "lost": len(lost),
+        "lost_within_100_steps": len(early),
     }
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("policy", type=Path, help="a folder written by train-dp --after")
+    parser.add_argument("policy", type=Path, nargs="?", help="a folder written by train-dp --after")
     parser.add_argument("--episodes", type=int, default=20)
     parser.add_argument("--seed", type=int, default=VALIDATION_SEED, help="first reset seed")
     parser.add_argument("--out", type=Path, default=OUT)
     parser.add_argument(
         "--trace", action="store_true", help="also how near the skill came to the expert's grasp"
     )
+    parser.add_argument("--report", action="store_true", help="how the runs in --out ended")
     args = parser.parse_args(argv)
+    if args.report:
+        for line in args.out.read_text().splitlines():
+            print(json.dumps(outcomes(json.loads(line))))
+        return 0
     try:
+        if args.policy is None:
+            raise ValueError("give a policy folder (or --report)")
         if args.episodes < 1:
             raise ValueError(f"--episodes must be at least 1, got {args.episodes}")
         record = run(args.policy, args.episodes, args.seed, args.trace)

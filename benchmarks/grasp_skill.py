@@ -34,6 +34,12 @@ from slide_gym.stats import wilson_interval  # noqa: E402
 OUT = Path("docs/results/learning/grasp_skill.jsonl")
 
 
+def _name(folder: Path) -> str:
+    """A policy folder's name; a DAgger round's (``RUN/round-R/policy``) with its run's."""
+    parts = folder.resolve().parts
+    return "/".join(parts[-3:]) if folder.name == "policy" and len(parts) >= 3 else folder.name
+
+
 def _expert_grasp(env: Any, seed: int) -> Any:
     """The arm's joints where the expert alone first closes the hand on ``seed``, or None."""
     from agents.evaluate import _planner_agent
@@ -121,7 +127,7 @@ def run(folder: Path, episodes: int, seed: int, trace: bool = False) -> dict[str
     handed_over = [r for r in results if r["handed_over"] is not None]
     wins = sum(r["success"] for r in results)
     return {
-        "policy": folder.name,
+        "policy": _name(folder),
         "episodes": episodes,
         "handed_over": len(handed_over),
         "successes": wins,

@@ -742,26 +742,28 @@ def _plot_curves(out: Path) -> None:
     curves = sorted((out / "curves").glob("*.csv")) if (out / "curves").exists() else []
     if not curves:
         return
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.6))
-    for path in curves:
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(13, 4.6))
+    colours = plt.get_cmap("tab20").colors
+    for k, path in enumerate(curves):
+        style = {"color": colours[k % 20], "linestyle": ("-", "--", ":")[k // 20 % 3]}
         rows = list(csv.DictReader(path.open()))
         it = [int(r["iteration"]) for r in rows]
-        ax1.plot(it, [float(r["loss"]) for r in rows], label=path.stem)
+        ax1.plot(it, [float(r["loss"]) for r in rows], label=path.stem, **style)
         val = [r for r in rows if r["val_success_rate"]]
         ax2.plot(
             [int(r["iteration"]) for r in val],
             [100 * float(r["val_success_rate"]) for r in val],
             marker="o",
-            label=path.stem,
+            **style,
         )
     ax1.set_yscale("log")
     ax1.set_xlabel("iteration")
     ax1.set_ylabel("noise-prediction loss")
     ax2.set_xlabel("iteration")
-    ax2.set_ylabel("validation success (%, 20 episodes)")
+    ax2.set_ylabel("validation success (%, 10-20 episodes)")
     ax2.set_ylim(0, 100)
-    ax2.legend(fontsize=7)
-    fig.tight_layout()
+    fig.legend(loc="center right", fontsize=7)
+    fig.tight_layout(rect=(0, 0, 0.76, 1))
     fig.savefig(out / "learning_curves.png", dpi=110)
     plt.close(fig)
 

@@ -263,6 +263,8 @@ def test_summarize_execute_throughput() -> None:
     assert s["real_time_factor"] == pytest.approx(5.0)  # 30 simulated s in 6 wall s
     assert s["planning_share_median"] == pytest.approx(0.375)  # of 0.25 and 0.5
     assert s["demos_per_core_min"] == pytest.approx(10.0)  # 1 lifted in 0.1 core-minutes
+    assert (s["sim_time_s_total"], s["wall_time_s_total"]) == pytest.approx((30.0, 6.0))
+    assert s["planning_time_s_total"] == pytest.approx(2.5)
     assert "real-time factor 5.0x" in execute_markdown_table(s)
     assert summarize_execute(ROWS)["real_time_factor"] is None  # no simulated times
 

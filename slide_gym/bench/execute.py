@@ -216,16 +216,25 @@ def _throughput(results: Sequence[dict[str, Any]]) -> dict[str, float | None]:
     """Ratios that hold across machines better than wall times: the real-time factor
     (simulated over wall seconds, all episodes together), the median share of an episode's
     wall time spent planning, and lifted episodes per wall minute of one core (each episode
-    runs on one)."""
+    runs on one); also the totals behind them (simulated, wall and planning seconds), from
+    which the real-time factor outside planning follows."""
     done = [r for r in results if r.get("wall_time_s") and r.get("sim_time_s") is not None]
     wall = sum(float(r["wall_time_s"]) for r in done)
     if not done or wall <= 0.0:
-        return {"real_time_factor": None, "planning_share_median": None, "demos_per_core_min": None}
-    shares = [float(r.get("planning_time_s") or 0.0) / float(r["wall_time_s"]) for r in done]
+        keys = ("real_time_factor", "planning_share_median", "demos_per_core_min")
+        totals = ("sim_time_s_total", "wall_time_s_total", "planning_time_s_total")
+        return dict.fromkeys(keys + totals)
+    planning = [float(r.get("planning_time_s") or 0.0) for r in done]
+    sim = sum(float(r["sim_time_s"]) for r in done)
     return {
-        "real_time_factor": sum(float(r["sim_time_s"]) for r in done) / wall,
-        "planning_share_median": _median(shares),
+        "real_time_factor": sim / wall,
+        "planning_share_median": _median(
+            [p / float(r["wall_time_s"]) for p, r in zip(planning, done, strict=True)]
+        ),
         "demos_per_core_min": sum(bool(r.get("success")) for r in done) / (wall / 60.0),
+        "sim_time_s_total": sim,
+        "wall_time_s_total": wall,
+        "planning_time_s_total": sum(planning),
     }
 
 

@@ -36,6 +36,8 @@ from slide_gym.splits import TEST_SEED  # noqa: E402 - after the thread setting
 SLIDE, GRASP = "SlideGym/TopSlide-v0", "SlideGym/TopSlideGrasp-v0"
 SQUARE = {"object": "square", "table": "square"}
 CATALOG = {"object": "random", "table": "random"}
+PROCEDURAL = {"object": "procedural", "table": "random"}
+"""Generated plates: the plate of each reset seed, so the test seeds' plates are unseen."""
 EE = {"control_mode": "ee_delta"}
 """Fingertip-pose increments instead of joint increments (the env's ``control_mode``)."""
 EPISODES = 100
@@ -284,6 +286,26 @@ ROWS = {
             {"episodes": 400, "only_success": True},
             OFFSETS,
         ),
+        Row("expert-catalog-grasp", "expert", GRASP, CATALOG),
+        Row(
+            "dp-catalog-grasp",
+            "dp",
+            GRASP,
+            CATALOG,
+            "slide-gym/catalog-grasp-v1",
+            SQUARE_SLIDE,
+            ["--iterations", "10000", "--val-every", "2500", *VAL10],
+        ),
+        Row("expert-procedural-grasp", "expert", GRASP, PROCEDURAL),
+        Row(
+            "dp-catalog-grasp-procedural",
+            "dp",
+            GRASP,
+            PROCEDURAL,
+            "slide-gym/catalog-grasp-v1",
+            SQUARE_SLIDE,
+            base="dp-catalog-grasp",
+        ),
         Row("expert-ee-square-slide", "expert", SLIDE, {**SQUARE, **EE}),
         Row(
             "bc-ee-square-slide",
@@ -465,20 +487,20 @@ ROWS.update(
 def command(row: Row, models: Path) -> str:
     """The ``slide-gym`` commands that make the row (what the table cites)."""
     out = models / row.name
-    scene = f"--object {row.scene['object']} --table {row.scene['table']}"
-    if "control_mode" in row.scene:
-        scene += f" --control-mode {row.scene['control_mode']}"
+    scene = _scene_options(row.scene)
     test = f"--episodes {EPISODES} --seed {TEST_SEED}"
     if row.action_horizon is not None:
         test += f" --action-horizon {row.action_horizon}"
     if row.method in ("random", "expert"):
         agent = "regions" if row.method == "expert" else "random"
         return f"slide-gym evaluate {agent} --env {row.env_id} {scene} {test}"
-    c = row.collect
+    trained = ROWS[row.base] if row.method == "dp" and row.base else row  # whose data
+    c = trained.collect
     noise = f" --action-noise {c['action_noise']}" if c.get("action_noise") else ""
     noise += "".join(f" --planner-param {k}={v}" for k, v in c.get("planner_params", {}).items())
     collect = (
-        f"slide-gym collect --env {row.env_id} {scene} --episodes {c.get('episodes')} "
+        f"slide-gym collect --env {row.env_id} {_scene_options(trained.scene)} "
+        f"--episodes {c.get('episodes')} "
         f"--only-success{noise} --dataset-id {row.dataset}"
     )
     if row.method == "bc":
@@ -494,9 +516,17 @@ def command(row: Row, models: Path) -> str:
         return f"{train}; slide-gym evaluate {policy} --env {row.env_id} {test}"
     if row.base is not None:
         out = models / row.base
-    args = " ".join(a.format(models=models) for a in row.train)
+    args = " ".join(a.format(models=models) for a in trained.train)
     train = f"slide-gym train-dp {row.dataset} --out {out} {args}".rstrip()
     return f"{collect}; {train}; slide-gym evaluate {out} --env {row.env_id} {scene} {test}"
+
+
+def _scene_options(scene: dict[str, str]) -> str:
+    """The ``--object``, ``--table`` (and ``--control-mode``) options of a scene."""
+    options = f"--object {scene['object']} --table {scene['table']}"
+    if "control_mode" in scene:
+        options += f" --control-mode {scene['control_mode']}"
+    return options
 
 
 def _rounds(row: Row) -> int:
@@ -533,7 +563,7 @@ def run(row: Row, models: Path, out: Path) -> dict[str, Any]:
         agent = "random" if row.method == "random" else "regions"
     else:
         if row.method != "dp-dagger":
-            _collect(row)
+            _collect(ROWS[row.base] if row.method == "dp" and row.base else row)
         path = models / (row.base if row.method == "dp" and row.base else row.name)
         if row.method == "bc":
             zip_path = path.with_suffix(".zip")
@@ -562,7 +592,8 @@ def run(row: Row, models: Path, out: Path) -> dict[str, Any]:
         else:
             if not (path / "policy.json").exists() or _unfinished(path):
                 resume = ["--resume"] if (path / "checkpoint.pt").exists() else []
-                args = [a.format(models=models) for a in row.train]
+                trained = ROWS[row.base] if row.base else row
+                args = [a.format(models=models) for a in trained.train]
                 _cli("train-dp", str(row.dataset), "--out", str(path), *args, *resume)
             agent = path
             training = json.loads((path / "policy.json").read_text())

@@ -50,6 +50,7 @@ from agents.params import (
     plate_grasp_u_star,
     plate_slide_params,
     relaxed_slide_params,
+    thin_plate_slide_params,
     turning_slide_params,
 )
 from agents.record import ExpertReport
@@ -343,6 +344,7 @@ class SlideGraspExpert:
         relaxed ones."""
         assert self.obj is not None
         strict = plate_slide_params(self.slide_params, self.params, self.obj.circumradius)
+        strict = thin_plate_slide_params(strict, self.obj.thickness)
         self.centroid_margin = strict.centroid_margin
         self.small_plate = is_small_plate(self.slide_params, self.params, self.obj.circumradius)
         self.grasp_u_star = plate_grasp_u_star(self.params, strict, self.small_plate)

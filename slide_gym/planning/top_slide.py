@@ -135,7 +135,8 @@ class TopSlidePlanner(Planner):
         self.constraints = SlideConstraints(self.chain, band, problem.contact_area, p.tolerance)
         self.checker = CollisionChecker(problem.table, problem.object)
         args = (self.constraints, self.checker, p.ik)
-        self.start_region = StartRegion(problem.start_points, *args)
+        pad = (problem.start_outline, p.pad_half_length) if p.pad_half_length > 0 else None
+        self.start_region = StartRegion(problem.start_points, *args, pad=pad)
         if p.goal_sampling == "plate":
             poses = PlateGoalPoses(
                 problem.object.polygon,

@@ -1,0 +1,89 @@
+"""How far the plate turns on its first slide against the turn Eq. 2 planned, from
+``slide-gym bench execute`` result files.
+
+Each file is one set (an outline at one thickness, density or planner setting). For every
+episode the first slide's yaw error comes from the expert's ``slid:`` event; for episodes
+without a replan the planned turn (Eq. 2's goal against the start) and the real one (the slid
+pose against the start) are compared, with the least-squares slope of real on planned: 1 when
+the plate turns with the fingertip, below 1 when it lags behind.
+
+    OMP_NUM_THREADS=1 slide-gym bench execute --objects docs/examples/shim.json --trials 10 \
+        --out shim.jsonl
+    python benchmarks/slide_rotation.py shim.jsonl [more.jsonl ...]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+FIRST_SLIDE = re.compile(r"^(?:slid|lifted off): .*error ([\d.]+) m ([\d.]+) rad")
+LARGE_ERROR = 0.3
+"""Yaw error (rad) counted as a large turn away from the plan."""
+
+
+def _wrap(angle: float) -> float:
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def summarise(path: Path) -> dict[str, Any]:
+    """The first-slide rotation figures of one ``bench execute`` result file."""
+    rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    errors = []
+    for row in rows:
+        match = next((m for e in row.get("events", []) if (m := FIRST_SLIDE.match(e))), None)
+        if match is not None:
+            errors.append(float(match.group(2)))
+    planned, real = [], []
+    for row in rows:
+        if row.get("replans") or row.get("object_slid_pose") is None:
+            continue
+        start = row["object_start_pose"][2]
+        planned.append(_wrap(row["object_predicted_pose"][2] - start))
+        real.append(_wrap(row["object_slid_pose"][2] - start))
+    err = np.asarray(errors)
+    p, r = np.asarray(planned), np.asarray(real)
+    slope = float(np.dot(p, r) / np.dot(p, p)) if len(p) and np.dot(p, p) > 0 else math.nan
+    return {
+        "file": path.name,
+        "object": rows[0]["object"] if rows else None,
+        "episodes": len(rows),
+        "lifted": sum(bool(row["success"]) for row in rows),
+        "replanned": sum(int(row.get("replans", 0)) > 0 for row in rows),
+        "slides": len(err),
+        "yaw_error_median_rad": float(np.median(err)) if len(err) else math.nan,
+        "yaw_error_p90_rad": float(np.percentile(err, 90)) if len(err) else math.nan,
+        "large_errors": int((err > LARGE_ERROR).sum()),
+        "planned_turn_median_rad": float(np.median(np.abs(p))) if len(p) else math.nan,
+        "real_turn_median_rad": float(np.median(np.abs(r))) if len(r) else math.nan,
+        "slope": slope,
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("files", nargs="+", type=Path, help="bench execute JSONL files")
+    args = parser.parse_args()
+    print(
+        "| set | lifted | replanned | first-slide yaw error: median / 90th pct | "
+        f"> {LARGE_ERROR} rad | planned turn (median) | real turn (median) | real / planned |"
+    )
+    print("|---|---|---|---|---|---|---|---|")
+    for path in args.files:
+        s = summarise(path)
+        print(
+            f"| {s['file']} | {s['lifted']}/{s['episodes']} | {s['replanned']} "
+            f"| {s['yaw_error_median_rad']:.2f} / {s['yaw_error_p90_rad']:.2f} rad "
+            f"| {s['large_errors']}/{s['slides']} | {s['planned_turn_median_rad']:.2f} rad "
+            f"| {s['real_turn_median_rad']:.2f} rad | {s['slope']:.2f} |"
+        )
+
+
+if __name__ == "__main__":
+    main()

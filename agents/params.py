@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from slide_gym.planning.api import GraspParams, SlideParams
-from slide_gym.robot.model import ARM_LOWER, ARM_UPPER, FINGER_WIDTH, MIN_CONTACT_SIZE
+from slide_gym.robot.model import ARM_LOWER, ARM_UPPER, MIN_CONTACT_SIZE
 
 EXPERT_SLIDE_PARAMS = SlideParams(
     dz=(0.012, 0.02),
@@ -44,19 +44,26 @@ EXPERT_SLIDE_PARAMS = SlideParams(
 
 
 THIN_PLATE = 0.002
-"""Plates thinner than this (m) keep the fingertip's whole contact line on them at the start
-(:func:`thin_plate_slide_params`)."""
+"""Plates thinner than this (m) get :func:`thin_plate_slide_params`."""
+THIN_PLATE_MAX_ROTATION = 0.4
+"""The largest plate turn (rad) a strict plan may ask of a thin plate."""
 
 
 def thin_plate_slide_params(params: SlideParams, thickness: float) -> SlideParams:
-    """``params`` for a plate ``thickness`` (m) thick: below :data:`THIN_PLATE`, start roots
-    keep the tip's contact line (the finger width, ``FINGER_WIDTH``) on the plate
-    (``pad_half_length``). On a 0.5 mm shim a line reaching past the outline lay on the
-    table with 4-6 N while the plate got 0.1-0.2 N, and the plate, pushed by its edge,
-    turned 0.7 times the planned turn (``benchmarks/slide_rotation.py``)."""
+    """``params`` for a plate ``thickness`` (m) thick: below :data:`THIN_PLATE`, a plate turn
+    of at most :data:`THIN_PLATE_MAX_ROTATION`.
+
+    The pressed fingertip sinks through a sub-millimetre plate onto the table, which takes
+    most of the press: a 0.5 mm plate pressed 1.6 cm deep carries 0.3 N, a 4 mm one 3.1 N.
+    Dragged by the sunken tip's point contact, which hardly passes on a turn, a 0.5 mm shim
+    turned 0.7 times the planned turn (a 4 mm one 1.0 times), so its yaw error grows with
+    the turn asked for (``benchmarks/slide_rotation.py``, docs/benchmarks.md "Thin
+    shims")."""
     if thickness >= THIN_PLATE:
         return params
-    return dataclasses.replace(params, pad_half_length=0.5 * FINGER_WIDTH)
+    return dataclasses.replace(
+        params, max_rotation=min(params.max_rotation, THIN_PLATE_MAX_ROTATION)
+    )
 
 
 GRASP_POSTURE = (-1.07, 1.73, 0.74, 1.26, 0.25, 1.46, -0.86)
@@ -219,14 +226,10 @@ def turning_slide_params(params: SlideParams, grasp_u_star: float) -> SlideParam
     far points must face an edge the arm can grasp at may need to turn further than 1.6 rad
     (in ten half-scale episodes planned in vain with 1.6 rad, six were lifted with any turn),
     and a plate reaching little more than u* + 1 cm past its centroid cannot overhang its
-    planned 2.65 cm with the fingertip 1 cm inside the edge. The tip's contact line may
-    then reach past a thin plate's outline (``pad_half_length`` 0)."""
+    planned 2.65 cm with the fingertip 1 cm inside the edge."""
     relaxed = relaxed_slide_params(params)
     return dataclasses.replace(
-        relaxed,
-        max_rotation=math.pi,
-        u_star=min(relaxed.u_star, grasp_u_star + 0.002),
-        pad_half_length=0.0,
+        relaxed, max_rotation=math.pi, u_star=min(relaxed.u_star, grasp_u_star + 0.002)
     )
 
 

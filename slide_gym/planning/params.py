@@ -65,14 +65,6 @@ class SlideParams:
     on the table, and the fingertip from the inverse of Eq. 2 for the latest start root
     (:mod:`slide_gym.planning.plate_goals`); ``"band"`` is the paper's C_g (Eq. 4): the
     contact anywhere in the band P_g with any yaw.
-
-    ``pad_half_length`` > 0 keeps the fingertip's whole contact line on the plate at the
-    start: the rounded tip touches along its width (X_F), and on a sub-millimetre plate a
-    line sticking out past the outline reaches the table with a slight roll, takes most of
-    the press and pushes the plate by its edge (it then turns about the push). Start roots
-    then draw their yaw among those that keep the line, ``pad_half_length`` each side of the
-    contact, inside the plate's outline; 0 (default) checks the contact point alone, as the
-    paper's C_s.
     """
 
     beta0: float = 0.9
@@ -90,7 +82,6 @@ class SlideParams:
     centroid_margin: float = 0.0  # m the placed plate's centroid must lie inside the table edge
     press_edge_margin: float = 0.0  # m, least distance of a press point from the plate's edge
     press_radius: float | None = None  # m: press only near the centroid (None: anywhere, paper)
-    pad_half_length: float = 0.0  # m of the tip's contact line each side, on the plate (0: paper)
     tip_edge_margin: float = 0.0  # m the fingertip contact stays inside the table edge (0: paper)
     shortcut_attempts: int = 40  # constrained shortcuts tried on the found slide (0: none)
     max_iterations: int | None = None  # search iterations before giving up (None: no cap)
@@ -108,7 +99,6 @@ class SlideParams:
             _finite(getattr(self, name), name, positive=True)
         _finite(self.centroid_margin, "centroid_margin")
         _finite(self.press_edge_margin, "press_edge_margin")
-        _finite(self.pad_half_length, "pad_half_length")
         _finite(self.tip_edge_margin, "tip_edge_margin")
         if not (isinstance(self.max_rotation, Real) and self.max_rotation > 0):
             raise ValueError(f"max_rotation must be a positive number, got {self.max_rotation!r}")

@@ -9,14 +9,7 @@ from typing import Any
 import numpy as np
 import shapely
 
-from slide_gym.geometry import (
-    ObjectShape,
-    TableShape,
-    get_object,
-    get_table,
-    transform_points,
-    transform_polygon,
-)
+from slide_gym.geometry import ObjectShape, TableShape, get_object, get_table, transform_points
 from slide_gym.planning.grasp_reach import reachable_stretches
 from slide_gym.planning.params import SlideParams
 from slide_gym.planning.regions import goal_band
@@ -77,8 +70,6 @@ class TopSlideProblem:
             if len(xy) == 0:
                 raise ValueError("no part of the object's top lies over the table to press on")
         self.start_points = np.column_stack([xy, np.full(len(xy), self.z_surface)])
-        self.start_outline = transform_polygon(self.object.polygon, *self.start_pose)
-        """The plate's outline at its start pose (world frame)."""
         margin = self.params.tip_edge_margin
         self.contact_area = self.table.polygon.buffer(-margin) if margin > 0 else self.table.polygon
         """Where the fingertip contact may be: the table, ``tip_edge_margin`` in from its edge."""

@@ -99,50 +99,18 @@ class ContactRegion:
         return q
 
 
-PAD_YAW_DRAWS = 8
-"""Yaws a start draw tries for a contact line that must lie on the plate."""
-
-
 class StartRegion(ContactRegion):
-    """C_s: contacts at the points of P_o (the plate top at its start pose, world frame).
+    """C_s: contacts at the points of P_o (the plate top at its start pose, world frame)."""
 
-    ``pad``: ``(outline, half_length)``, the plate's outline in the world frame and how far
-    the fingertip's contact line reaches each side of the contact along X_F; a draw then takes
-    the first of :data:`PAD_YAW_DRAWS` yaws whose line lies inside the outline (None if none
-    does). None: any yaw, as the paper."""
-
-    def __init__(
-        self,
-        points: np.ndarray,
-        *args,
-        pad: tuple[shapely.Geometry, float] | None = None,
-        **kwargs,
-    ):
+    def __init__(self, points: np.ndarray, *args, **kwargs):
         super().__init__(*args, **kwargs)
         pts = np.asarray(points, dtype=float)
         if pts.ndim != 2 or pts.shape[1] < 2 or len(pts) == 0:
             raise ValueError(f"P_o must be a non-empty (N, 2|3) array, got shape {pts.shape}")
         self.points = pts[:, :2].copy()
-        self.pad = pad
-        if pad is not None:
-            shapely.prepare(pad[0])
 
     def sample_point(self, rng: np.random.Generator) -> np.ndarray:
         return self.points[int(rng.integers(len(self.points)))]
-
-    def sample(self, rng: np.random.Generator) -> np.ndarray | None:
-        if self.pad is None:
-            return super().sample(rng)
-        self.draws += 1
-        xy = self.sample_point(rng)
-        outline, half = self.pad
-        alphas = rng.uniform(0.0, TWO_PI, PAD_YAW_DRAWS)
-        reach = half * np.column_stack([np.cos(alphas), np.sin(alphas)])
-        lines = shapely.linestrings(np.stack([xy - reach, xy + reach], axis=1))
-        on_plate = np.flatnonzero(shapely.contains(outline, lines))
-        if len(on_plate) == 0:
-            return None
-        return self.solve_contact(xy, float(alphas[on_plate[0]]), rng)
 
 
 def goal_band(

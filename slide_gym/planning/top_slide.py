@@ -135,8 +135,7 @@ class TopSlidePlanner(Planner):
         self.constraints = SlideConstraints(self.chain, band, problem.contact_area, p.tolerance)
         self.checker = CollisionChecker(problem.table, problem.object)
         args = (self.constraints, self.checker, p.ik)
-        pad = (problem.start_outline, p.pad_half_length) if p.pad_half_length > 0 else None
-        self.start_region = StartRegion(problem.start_points, *args, pad=pad)
+        self.start_region = StartRegion(problem.start_points, *args)
         if p.goal_sampling == "plate":
             poses = PlateGoalPoses(
                 problem.object.polygon,

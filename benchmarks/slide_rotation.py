@@ -10,6 +10,11 @@ the plate turns with the fingertip, below 1 when it lags behind.
     OMP_NUM_THREADS=1 slide-gym bench execute --objects docs/examples/shim.json --trials 10 \
         --out shim.jsonl
     python benchmarks/slide_rotation.py shim.jsonl [more.jsonl ...]
+
+``--press`` also presses a card outline of each thickness in :data:`PRESS_THICKNESSES` 1.6 cm
+deep (the middle of the expert's band) and drags it 5 cm
+(:func:`slide_gym.bench.drag.drag_plate`): how much of the press the plate carries, and how
+far the fingertip sank into the table.
 """
 
 from __future__ import annotations
@@ -66,10 +71,30 @@ def summarise(path: Path) -> dict[str, Any]:
     }
 
 
+PRESS_THICKNESSES = (0.0005, 0.00076, 0.002, 0.004)
+"""Plate thicknesses (m) of ``--press``."""
+
+
+def press_shares() -> None:
+    """Print the plate's share of the press at each of :data:`PRESS_THICKNESSES`."""
+    from slide_gym.bench.drag import drag_plate
+
+    print("| thickness | press on the plate (median) | plate below the table top (deepest) |")
+    print("|---|---|---|")
+    for thickness in PRESS_THICKNESSES:
+        r = drag_plate(thickness, 0.016, 0.0, length=0.05)
+        print(f"| {thickness * 1000:.2f} mm | {r.press_force_n:.2f} N | {r.sink_m * 1000:.2f} mm |")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("files", nargs="+", type=Path, help="bench execute JSONL files")
+    parser.add_argument("files", nargs="*", type=Path, help="bench execute JSONL files")
+    parser.add_argument("--press", action="store_true", help="also press and drag card outlines")
     args = parser.parse_args()
+    if args.press:
+        press_shares()
+    if not args.files:
+        return
     print(
         "| set | lifted | replanned | first-slide yaw error: median / 90th pct | "
         f"> {LARGE_ERROR} rad | planned turn (median) | real turn (median) | real / planned |"

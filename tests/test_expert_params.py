@@ -9,10 +9,14 @@ import pytest
 
 from agents.params import (
     EXPERT_SLIDE_PARAMS,
+    THIN_PLATE,
+    THIN_PLATE_MAX_ROTATION,
     ExpertParams,
     is_small_plate,
     plate_grasp_u_star,
     plate_slide_params,
+    relaxed_slide_params,
+    thin_plate_slide_params,
 )
 from agents.trajectory import Segment, time_segment
 from slide_gym.robot.model import MIN_CONTACT_SIZE
@@ -68,6 +72,13 @@ def test_small_plates_are_grasped_from_the_measured_pinch_whatever_their_plan(
     sp = dataclasses.replace(sp, u_star=planned)
     assert plate_grasp_u_star(p, sp, small=True) == pytest.approx(p.pinch_u_star)
     assert plate_grasp_u_star(p, sp) == p.grasp_u_star
+
+
+def test_thin_plates_are_turned_less_by_the_strict_plan_only() -> None:
+    shim = thin_plate_slide_params(EXPERT_SLIDE_PARAMS, thickness=0.0005)
+    assert shim.max_rotation == THIN_PLATE_MAX_ROTATION < EXPERT_SLIDE_PARAMS.max_rotation
+    assert thin_plate_slide_params(EXPERT_SLIDE_PARAMS, THIN_PLATE) == EXPERT_SLIDE_PARAMS
+    assert relaxed_slide_params(shim).max_rotation > 1.5  # the fallbacks may still turn it
 
 
 def test_ramped_legs_start_and_stop_gently_and_arrive() -> None:

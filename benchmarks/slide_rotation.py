@@ -20,6 +20,7 @@ far the fingertip sank into the table.
 from __future__ import annotations
 
 import argparse
+import gzip
 import json
 import math
 import re
@@ -39,7 +40,8 @@ def _wrap(angle: float) -> float:
 
 def summarise(path: Path) -> dict[str, Any]:
     """The first-slide rotation figures of one ``bench execute`` result file."""
-    rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    text = gzip.decompress(path.read_bytes()).decode() if path.suffix == ".gz" else path.read_text()
+    rows = [json.loads(line) for line in text.splitlines() if line.strip()]
     errors = []
     for row in rows:
         match = next((m for e in row.get("events", []) if (m := FIRST_SLIDE.match(e))), None)

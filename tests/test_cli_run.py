@@ -311,6 +311,36 @@ def test_bench_execute_rejects_bad_input(
     assert fake.calls == []
 
 
+def test_bench_execute_passes_expert_params_to_every_episode(
+    fake: FakeEpisode, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "execute.jsonl"
+    argv = ["bench", "execute", "--objects", "L", "--tables", "square", "--trials", "2"]
+    argv += ["--workers", "1", "--out", str(out), "--expert-param", "slide_speed=0.075"]
+    assert main([*argv, "--expert-param", "max_replans=3"]) == 0
+    params = [c["params"] for c in fake.calls]
+    assert [(p.slide_speed, p.max_replans) for p in params] == [(0.075, 3), (0.075, 3)]
+    assert isinstance(params[0].max_replans, int)
+    assert all(json.loads(line)["case"]["expert"]["slide_speed"] == 0.075 for line in out.open())
+
+
+@pytest.mark.parametrize(
+    ("value", "message"),
+    [
+        ("slide_sped=0.07", "unknown expert parameters ['slide_sped']; allowed: approach_speed"),
+        ("slide_speed=-1", "slide_speed must be a finite positive number"),
+        ("slide_speed", "--expert-param takes NAME=NUMBER, got 'slide_speed'"),
+    ],
+)
+def test_bench_execute_rejects_a_bad_expert_param(
+    fake: FakeEpisode, tmp_path: Path, capsys: pytest.CaptureFixture[str], value: str, message: str
+) -> None:
+    argv = ["bench", "execute", "--expert-param", value, "--out", str(tmp_path / "x.jsonl")]
+    assert main(argv) == 2
+    assert message in capsys.readouterr().err
+    assert fake.calls == []
+
+
 def test_failures_are_counted_by_cause_without_their_numbers() -> None:
     from agents.outcome import failure_kind
 

@@ -37,18 +37,43 @@ def _run_episode() -> Callable[..., EpisodeRecord]:
     return run_episode
 
 
+def expert_params(values: dict[str, float]) -> Any:
+    """:class:`agents.params.ExpertParams` with ``values`` replacing its defaults; a
+    ValueError naming an unknown field and the allowed ones."""
+    import dataclasses
+
+    from agents.params import ExpertParams
+
+    fields = [f.name for f in dataclasses.fields(ExpertParams)]
+    unknown = sorted(set(values) - set(fields))
+    if unknown:
+        raise ValueError(f"unknown expert parameters {unknown}; allowed: {', '.join(fields)}")
+    defaults = ExpertParams()
+    # the caps that count work are integers: NAME=3 arrives as 3.0
+    counted = {
+        k: int(v) if isinstance(getattr(defaults, k), int) and float(v).is_integer() else v
+        for k, v in values.items()
+    }
+    return dataclasses.replace(defaults, **counted)
+
+
 def execute_case(case: dict[str, Any]) -> dict[str, Any]:
     """One expert episode of the execute benchmark (runs in a worker process).
 
-    A case's ``dz`` (``[dz_lo, dz_hi]``, m), if any, replaces the expert's contact band
-    (``agents.params.EXPERT_SLIDE_PARAMS.dz``) for every plan of the episode: the first, the
-    relaxed fallback and the replans (they all derive from the agent's parameters and keep
-    its ``dz``). A scene the episode rejects (``ValueError``) becomes a failed row carrying
-    the message, with the same keys as an episode's row.
+    A case's ``expert`` (a dict of :class:`agents.params.ExpertParams` fields), if any,
+    replaces those execution settings. Its ``dz`` (``[dz_lo, dz_hi]``, m), if any, replaces
+    the expert's contact band (``agents.params.EXPERT_SLIDE_PARAMS.dz``) for every plan of
+    the episode: the first, the relaxed fallback and the replans (they all derive from the
+    agent's parameters and keep its ``dz``). A scene the episode rejects (``ValueError``)
+    becomes a failed row carrying the message, with the same keys as an episode's row.
     """
     from agents.record import EpisodeRecord
 
-    overrides = {"dz": (float(case["dz"][0]), float(case["dz"][1]))} if "dz" in case else {}
+    overrides: dict[str, Any] = {}
+    if "dz" in case:
+        overrides["dz"] = (float(case["dz"][0]), float(case["dz"][1]))
+    if "expert" in case:
+        overrides["params"] = expert_params(case["expert"])
     try:
         record = _run_episode()(
             case["object"],
@@ -88,6 +113,7 @@ def bench_execute(
     env_id: str = ENV_ID,
     backend: str = "local",
     address: str | None = None,
+    expert: dict[str, float] | None = None,
 ) -> dict[str, Any]:
     """Run ``trials`` seeded episodes per object and table (resumable: results go to ``out``).
 
@@ -97,6 +123,7 @@ def bench_execute(
     on the 4 tables. ``scale`` and ``thickness`` (m) apply to every object. ``env_id``: the
     environment (``SlideGym/TopSlide-v0``: the slide alone, success = left graspable).
     ``backend``, ``address``: where episodes run (:func:`slide_gym.jobs.run_cases`).
+    ``expert``: :class:`agents.params.ExpertParams` fields to override (speeds, gains).
     """
     from slide_gym import DICT_ENV_IDS
     from slide_gym.geometry import OBJECT_NAMES, get_object, get_table
@@ -126,6 +153,9 @@ def bench_execute(
         extra["thickness"] = float(thickness)
     if env_id != ENV_ID:
         extra["env_id"] = env_id
+    if expert:
+        expert_params(expert)  # a bad name or value fails here, not in every worker
+        extra["expert"] = dict(expert)
     n = len(tables)
     cases = [
         {

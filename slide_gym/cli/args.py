@@ -278,3 +278,20 @@ def fmt_pose(pose: Sequence[float] | None) -> str:
         return "n/a"
     x, y, yaw = (float(v) for v in pose)
     return f"(x {x:.3f} m, y {y:.3f} m, yaw {yaw:.3f} rad)"
+
+
+def parse_assignments(items: list[str] | None, option: str) -> dict[str, float] | None:
+    """Repeated ``OPTION NAME=NUMBER`` values as a dict (None if there are none); the names
+    are checked by whoever takes them."""
+    if not items:
+        return None
+    out: dict[str, float] = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        try:
+            if not sep:
+                raise ValueError
+            out[name.strip()] = float(value)
+        except ValueError:
+            raise ValueError(f"{option} takes NAME=NUMBER, got {item!r}") from None
+    return out

@@ -15,6 +15,7 @@ from slide_gym.cli.args import (
     add_command,
     add_env,
     examples_epilog,
+    parse_assignments,
     parse_floats,
     parse_names,
 )
@@ -62,6 +63,7 @@ def _cmd_bench_execute(args: argparse.Namespace) -> int:
         env_id=args.env,
         backend=args.backend,
         address=args.ray_address,
+        expert=parse_assignments(args.expert_param, "--expert-param"),
         **{name: getattr(args, name) for name in options},
     )
     print(execute_markdown_table(summary) if args.markdown else json.dumps(summary, indent=2))
@@ -269,6 +271,13 @@ def _add_execute(what: Any) -> None:
         "success = left graspable)"
     )
     add_env(p, "bench execute", env_help, execute.ENV_ID)
+    p.add_argument(
+        "--expert-param",
+        action="append",
+        metavar="NAME=VALUE",
+        help="override one of the expert's execution settings (agents.params.ExpertParams, "
+        "e.g. slide_speed=0.075); repeatable",
+    )
     _add_jobs(p, execute.OUT, "first episode seed (trial k uses SEED + k)")
     p.add_argument("--markdown", action="store_true", help="print markdown tables (default: JSON)")
     p.set_defaults(func=_cmd_bench_execute)

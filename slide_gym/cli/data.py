@@ -19,6 +19,7 @@ from slide_gym.cli.args import (
     add_randomization,
     check_output,
     one_line_warnings,
+    parse_assignments,
     parse_randomization,
 )
 from slide_gym.planning.search import PLANNERS
@@ -58,22 +59,6 @@ OBS_MODES = ("state", "rgbd", "pointcloud")
 """:data:`slide_gym.envs.observation.OBS_MODES`, without importing the envs for ``--help``."""
 
 
-def _planner_params(items: list[str] | None) -> dict[str, float] | None:
-    """``--planner-param NAME=VALUE`` options as a dict (checked by CollectConfig)."""
-    if not items:
-        return None
-    out: dict[str, float] = {}
-    for item in items:
-        name, sep, value = item.partition("=")
-        try:
-            if not sep:
-                raise ValueError
-            out[name.strip()] = float(value)
-        except ValueError:
-            raise ValueError(f"--planner-param takes NAME=NUMBER, got {item!r}") from None
-    return out
-
-
 def _cmd_collect(args: argparse.Namespace) -> int:
     from slide_gym.datasets.collect import collect, failure_report
     from slide_gym.datasets.config import CollectConfig
@@ -94,7 +79,7 @@ def _cmd_collect(args: argparse.Namespace) -> int:
         action_noise=args.action_noise,
         split=args.split,
         randomization=parse_randomization(args.randomization),
-        planner_params=_planner_params(args.planner_param),
+        planner_params=parse_assignments(args.planner_param, "--planner-param"),
     )
     summary = collect(
         config,

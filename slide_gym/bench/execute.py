@@ -18,6 +18,7 @@ from slide_gym import EXPERT_ENV_ID
 from slide_gym.jobs import run_cases
 
 if TYPE_CHECKING:  # agents builds on slide_gym: imported on use only
+    from agents.params import ExpertParams
     from agents.record import EpisodeRecord
 
 PLANNER = "regions"
@@ -37,7 +38,7 @@ def _run_episode() -> Callable[..., EpisodeRecord]:
     return run_episode
 
 
-def expert_params(values: dict[str, float]) -> Any:
+def expert_params(values: dict[str, float]) -> ExpertParams:
     """:class:`agents.params.ExpertParams` with ``values`` replacing its defaults; a
     ValueError naming an unknown field and the allowed ones."""
     import dataclasses

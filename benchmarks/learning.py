@@ -303,7 +303,6 @@ ROWS = {
             GRASP,
             PROCEDURAL,
             "slide-gym/catalog-grasp-v1",
-            SQUARE_SLIDE,
             base="dp-catalog-grasp",
         ),
         Row("expert-ee-square-slide", "expert", SLIDE, {**SQUARE, **EE}),
@@ -494,7 +493,7 @@ def command(row: Row, models: Path) -> str:
     if row.method in ("random", "expert"):
         agent = "regions" if row.method == "expert" else "random"
         return f"slide-gym evaluate {agent} --env {row.env_id} {scene} {test}"
-    trained = ROWS[row.base] if row.method == "dp" and row.base else row  # whose data
+    trained = _trained(row)
     c = trained.collect
     noise = f" --action-noise {c['action_noise']}" if c.get("action_noise") else ""
     noise += "".join(f" --planner-param {k}={v}" for k, v in c.get("planner_params", {}).items())
@@ -519,6 +518,12 @@ def command(row: Row, models: Path) -> str:
     args = " ".join(a.format(models=models) for a in trained.train)
     train = f"slide-gym train-dp {row.dataset} --out {out} {args}".rstrip()
     return f"{collect}; {train}; slide-gym evaluate {out} --env {row.env_id} {scene} {test}"
+
+
+def _trained(row: Row) -> Row:
+    """The row whose data and training make ``row``'s policy: its ``base`` for a diffusion
+    policy tested elsewhere, else itself."""
+    return ROWS[row.base] if row.method == "dp" and row.base else row
 
 
 def _scene_options(scene: dict[str, str]) -> str:
@@ -563,7 +568,7 @@ def run(row: Row, models: Path, out: Path) -> dict[str, Any]:
         agent = "random" if row.method == "random" else "regions"
     else:
         if row.method != "dp-dagger":
-            _collect(ROWS[row.base] if row.method == "dp" and row.base else row)
+            _collect(_trained(row))
         path = models / (row.base if row.method == "dp" and row.base else row.name)
         if row.method == "bc":
             zip_path = path.with_suffix(".zip")
@@ -592,8 +597,7 @@ def run(row: Row, models: Path, out: Path) -> dict[str, Any]:
         else:
             if not (path / "policy.json").exists() or _unfinished(path):
                 resume = ["--resume"] if (path / "checkpoint.pt").exists() else []
-                trained = ROWS[row.base] if row.base else row
-                args = [a.format(models=models) for a in trained.train]
+                args = [a.format(models=models) for a in _trained(row).train]
                 _cli("train-dp", str(row.dataset), "--out", str(path), *args, *resume)
             agent = path
             training = json.loads((path / "policy.json").read_text())

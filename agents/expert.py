@@ -208,6 +208,8 @@ class SlideGraspExpert:
             self._steps += 1
             return self._action(self.q_cmd, self.hand_cmd)
         step = self.queue.popleft()
+        if step.phase == "slide" and self._overhang_reached(obs):
+            self._stop_slide(step)
         limit = 1.0
         if self.retimed and self._plan_q is not None:
             limit = min(1.0, max(RETIME_MIN_STEP, self._step_size(self._plan_q, step.q)))
@@ -280,6 +282,34 @@ class SlideGraspExpert:
             return bool(np.linalg.norm(moved) > plate_tol)
         tips = self.tip.forward(np.stack([self.q_cmd, self.target]))[:, :3, 3]
         return bool(np.linalg.norm(tips[0] - tips[1]) > drift)
+
+    def _overhang_reached(self, obs: dict[str, np.ndarray]) -> bool:
+        """Whether ``ExpertParams.stop_overhang`` is set and the plate's measured overhang
+        has reached it, its centroid still on the table."""
+        stop = self.params.stop_overhang
+        if stop is None or self.obj is None or self.table is None:
+            return False
+        placed = transform_polygon(self.obj.polygon, *self._object_pose(obs))
+        ov = overhang(placed, self.table.polygon)
+        return bool(ov.u >= stop and ov.centroid_inside)
+
+    def _stop_slide(self, step: _Step) -> None:
+        """End the slide at ``step``: the rest of it is dropped and the fingertip holds there,
+        still pressed, for ``slide_settle_s`` (as at a plan's end); what follows a slide
+        follows."""
+        left = sum(1 for s in self.queue if s.phase == "slide")
+        hold = max(1, round(self.params.slide_settle_s / self.dt))
+        if left <= hold:  # already settling at the plan's end
+            return
+        for _ in range(left):
+            self.queue.popleft()
+        for _ in range(hold):
+            self.queue.appendleft(dataclasses.replace(step))
+        self.q_slide_end = np.asarray(step.q, dtype=float)
+        self.report.events.append(
+            f"slide stopped at the overhang {self.params.stop_overhang:.3f} m, "
+            f"{left - hold} steps early"
+        )
 
     def _step_size(self, q_from: np.ndarray, q_to: np.ndarray) -> float:
         """The plan's speed between two consecutive targets, in action units."""

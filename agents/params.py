@@ -109,6 +109,12 @@ class ExpertParams:
     end in similar grasps, which a learner can imitate; None takes the solution nearest the
     arm's own IK branch after the slide (the grasps then spread over the branches that the
     sliding configurations happened to be on).
+
+    ``stop_overhang`` (m, or None): end a slide early, still pressing, once the plate's
+    measured overhang reaches this, then settle and lift off as at the plan's end. None
+    follows the plan to its end, whose overhang the planner samples anywhere from u* to
+    several centimetres beyond it. A fixed stop makes the moment a slide ends a function of
+    what a learner observes (the overhang), not of a plan it cannot see.
     """
 
     approach_speed: float = 1.0  # rad/s, free-space joint speed
@@ -141,17 +147,38 @@ class ExpertParams:
     grasp_u_star: float = MIN_CONTACT_SIZE + 0.002  # m, least real overhang to grasp (u* + 2 mm)
     pinch_u_star: float = 0.0175  # m, least overhang measured to pinch and lift (small plates)
     grasp_posture: tuple[float, ...] | None = GRASP_POSTURE
+    stop_overhang: float | None = None
 
     def __post_init__(self) -> None:
         for name, value in dataclasses.asdict(self).items():
             if name == "grasp_posture":
                 _check_posture(value)
+            elif name == "stop_overhang" and value is None:
+                continue
             elif name in _COUNTS:
                 least = 0 if name == "max_replans" else 1
                 if isinstance(value, bool) or not isinstance(value, int) or value < least:
                     raise ValueError(f"{name} must be an integer >= {least}, got {value!r}")
             elif not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ValueError(f"ExpertParams.{name} must be a finite positive number: {value}")
+
+
+def expert_params(values: dict[str, float | None]) -> ExpertParams:
+    """:class:`ExpertParams` with ``values`` replacing its defaults; a ValueError naming an
+    unknown field and the allowed ones."""
+    fields = [f.name for f in dataclasses.fields(ExpertParams)]
+    unknown = sorted(set(values) - set(fields))
+    if unknown:
+        raise ValueError(f"unknown expert parameters {unknown}; allowed: {', '.join(fields)}")
+    defaults = ExpertParams()
+    # the caps that count work are integers: NAME=3 arrives as 3.0
+    counted = {
+        k: int(v)
+        if isinstance(getattr(defaults, k), int) and isinstance(v, float) and v.is_integer()
+        else v
+        for k, v in values.items()
+    }
+    return dataclasses.replace(defaults, **counted)
 
 
 def _check_posture(value: tuple[float, ...] | None) -> None:

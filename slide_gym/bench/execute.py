@@ -18,7 +18,6 @@ from slide_gym import EXPERT_ENV_ID
 from slide_gym.jobs import run_cases
 
 if TYPE_CHECKING:  # agents builds on slide_gym: imported on use only
-    from agents.params import ExpertParams
     from agents.record import EpisodeRecord
 
 PLANNER = "regions"
@@ -38,26 +37,6 @@ def _run_episode() -> Callable[..., EpisodeRecord]:
     return run_episode
 
 
-def expert_params(values: dict[str, float]) -> ExpertParams:
-    """:class:`agents.params.ExpertParams` with ``values`` replacing its defaults; a
-    ValueError naming an unknown field and the allowed ones."""
-    import dataclasses
-
-    from agents.params import ExpertParams
-
-    fields = [f.name for f in dataclasses.fields(ExpertParams)]
-    unknown = sorted(set(values) - set(fields))
-    if unknown:
-        raise ValueError(f"unknown expert parameters {unknown}; allowed: {', '.join(fields)}")
-    defaults = ExpertParams()
-    # the caps that count work are integers: NAME=3 arrives as 3.0
-    counted = {
-        k: int(v) if isinstance(getattr(defaults, k), int) and float(v).is_integer() else v
-        for k, v in values.items()
-    }
-    return dataclasses.replace(defaults, **counted)
-
-
 def execute_case(case: dict[str, Any]) -> dict[str, Any]:
     """One expert episode of the execute benchmark (runs in a worker process).
 
@@ -68,6 +47,7 @@ def execute_case(case: dict[str, Any]) -> dict[str, Any]:
     agent's parameters and keep its ``dz``). A scene the episode rejects (``ValueError``)
     becomes a failed row carrying the message, with the same keys as an episode's row.
     """
+    from agents.params import expert_params
     from agents.record import EpisodeRecord
 
     overrides: dict[str, Any] = {}
@@ -126,6 +106,7 @@ def bench_execute(
     ``backend``, ``address``: where episodes run (:func:`slide_gym.jobs.run_cases`).
     ``expert``: :class:`agents.params.ExpertParams` fields to override (speeds, gains).
     """
+    from agents.params import expert_params
     from slide_gym import DICT_ENV_IDS
     from slide_gym.geometry import OBJECT_NAMES, get_object, get_table
     from slide_gym.geometry.catalog import unknown_name

@@ -80,6 +80,7 @@ def _cmd_collect(args: argparse.Namespace) -> int:
         split=args.split,
         randomization=parse_randomization(args.randomization),
         planner_params=parse_assignments(args.planner_param, "--planner-param"),
+        expert_params=parse_assignments(args.expert_param, "--expert-param"),
     )
     summary = collect(
         config,
@@ -326,6 +327,13 @@ def add_parsers(sub: Any) -> None:
         help="override one of the expert's planner parameters (u_star, centroid_margin, "
         "press_radius, max_rotation), e.g. u_star=0.03: slides that stop at 3 cm of overhang; "
         "repeatable",
+    )
+    p.add_argument(
+        "--expert-param",
+        action="append",
+        metavar="NAME=VALUE",
+        help="override one of the expert's execution settings (agents.params.ExpertParams), "
+        "e.g. stop_overhang=0.035: every slide ends once the plate overhangs 3.5 cm; repeatable",
     )
     add_randomization(p)
     p.set_defaults(func=_cmd_collect)

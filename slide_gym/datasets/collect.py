@@ -151,6 +151,7 @@ def _build(
     kept = [r for r in tried if r["case"]["seed"] in set(seeds)]
     returns = [r["return"] for r in kept]
     steps = sum(r["steps"] for r in kept)
+    expert = config.agent_kwargs().get("params", ExpertParams())
     metadata = {
         "config": config.to_json(),
         "env_id": config.env_id,
@@ -158,7 +159,7 @@ def _build(
         "agent": {
             "planner": config.agent,
             "time_budget_s": config.time_budget,
-            "expert_params": dataclasses.asdict(ExpertParams()),
+            "expert_params": dataclasses.asdict(expert),
             "slide_params": dataclasses.asdict(EXPERT_SLIDE_PARAMS),
         },
         "randomization": to_json(parse(config.randomization)),

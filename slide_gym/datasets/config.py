@@ -60,6 +60,21 @@ def check_planner_params(params: dict[str, Any]) -> dict[str, float]:
     return out
 
 
+def check_expert_params(params: dict[str, Any]) -> dict[str, float]:
+    """``params`` as ``{name: float}`` if :func:`agents.params.expert_params` accepts them,
+    else its ValueError (an unknown name lists the allowed ones)."""
+    from agents.params import expert_params  # agents builds on slide_gym: imported on use
+
+    if not isinstance(params, dict):
+        raise ValueError(f"expert_params must be a dict of name -> number, got {params!r}")
+    for name, value in params.items():
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ValueError(f"expert parameter {name} must be a number, got {value!r}")
+    out = {name: float(value) for name, value in params.items()}
+    expert_params(out)
+    return out
+
+
 @dataclass(frozen=True)
 class CollectConfig:
     """The environment and the agent of a dataset.
@@ -87,6 +102,9 @@ class CollectConfig:
         planner_params: overrides of the expert's planner parameters (names in
             :data:`NUMERIC_PLANNER_PARAMS`), e.g. ``{"u_star": 0.03}`` for slides that stop
             at a smaller overhang; None: the expert's own.
+        expert_params: overrides of the expert's execution settings
+            (:class:`agents.params.ExpertParams` fields), e.g. ``{"stop_overhang": 0.035}``
+            for slides that end once the plate overhangs 3.5 cm; None: the defaults.
     """
 
     env_id: str
@@ -104,6 +122,7 @@ class CollectConfig:
     split: str | None = None
     randomization: str | dict[str, list[float]] | None = None
     planner_params: dict[str, float] | None = None
+    expert_params: dict[str, float] | None = None
 
     def __post_init__(self) -> None:
         if self.env_id not in DICT_ENV_IDS:
@@ -146,13 +165,21 @@ class CollectConfig:
             split.first_seed("collect", 1, self.seed)
         if self.planner_params is not None:
             object.__setattr__(self, "planner_params", check_planner_params(self.planner_params))
+        if self.expert_params is not None:
+            object.__setattr__(self, "expert_params", check_expert_params(self.expert_params))
         ranges = parse(self.randomization)
         if self.randomization is not None and self.randomization != DEFAULT:
             object.__setattr__(self, "randomization", to_json(ranges))  # JSON's own form
 
     def agent_kwargs(self) -> dict[str, Any]:
-        """The expert's planner-parameter overrides (``PlannerAgent(..., **kwargs)``)."""
-        return dict(self.planner_params or {})
+        """The expert's overrides: planner parameters, and ``params`` (its execution
+        settings) if any are set (``PlannerAgent(..., **kwargs)``)."""
+        kwargs: dict[str, Any] = dict(self.planner_params or {})
+        if self.expert_params:
+            from agents.params import expert_params
+
+            kwargs["params"] = expert_params(self.expert_params)
+        return kwargs
 
     def env_kwargs(self) -> dict[str, Any]:
         """The keyword arguments of ``gym.make(env_id, ...)`` (JSON values only)."""
@@ -172,7 +199,7 @@ class CollectConfig:
         for name in ("action_noise", "split"):
             if not data[name]:
                 del data[name]
-        for name in ("randomization", "planner_params"):
+        for name in ("randomization", "planner_params", "expert_params"):
             if not data[name]:
                 del data[name]
         return data

@@ -91,6 +91,11 @@ SEED_GROUPS = {
         "dp-ee-square-slide-wide-seed1",
         "dp-ee-square-slide-wide-seed2",
     ],
+    "dp-ee-square-slide-stop": [
+        "dp-ee-square-slide-stop",
+        "dp-ee-square-slide-stop-seed1",
+        "dp-ee-square-slide-stop-seed2",
+    ],
 }
 """Rows that differ only in the training seed (0, 1, 2): ``report`` gives their mean and
 spread once all have run."""
@@ -117,18 +122,23 @@ def _ee_square_dagger(
     )
 
 
-def _ee_square_seeds(name: str, train: list[str]) -> list[Row]:
-    """Diffusion-policy rows on the square slide demonstrations in fingertip steps, trained
-    with ``train`` at training seeds 0 (row ``name``), 1 and 2 (``name-seed1``, ``-seed2``;
-    a :data:`SEED_GROUPS` entry)."""
+def _ee_square_seeds(
+    name: str,
+    train: list[str],
+    dataset: str = "slide-gym/square-slide-ee-v1",
+    collect: dict[str, Any] | None = None,
+) -> list[Row]:
+    """Diffusion-policy rows on the square slide demonstrations in fingertip steps
+    (``dataset``, collected with ``collect``), trained with ``train`` at training seeds 0
+    (row ``name``), 1 and 2 (``name-seed1``, ``-seed2``; a :data:`SEED_GROUPS` entry)."""
     return [
         Row(
             name + (f"-seed{s}" if s else ""),
             "dp",
             SLIDE,
             {**SQUARE, **EE},
-            "slide-gym/square-slide-ee-v1",
-            SQUARE_SLIDE,
+            dataset,
+            collect or SQUARE_SLIDE,
             train + (["--seed", str(s)] if s else []),
         )
         for s in (0, 1, 2)
@@ -392,6 +402,12 @@ ROWS = {
             {**SQUARE_SLIDE, "planner_params": {"u_star": 0.03}},
             ["--iterations", "8000", "--val-every", "4000"],
         ),
+        *_ee_square_seeds(
+            "dp-ee-square-slide-stop",
+            ["--iterations", "10000"],
+            "slide-gym/square-slide-ee-stop-v1",
+            {**SQUARE_SLIDE, "expert_params": {"stop_overhang": 0.035}},
+        ),
         Row(
             "dp-ee-square-slide-10k-ft",
             "dp",
@@ -497,6 +513,7 @@ def command(row: Row, models: Path) -> str:
     c = trained.collect
     noise = f" --action-noise {c['action_noise']}" if c.get("action_noise") else ""
     noise += "".join(f" --planner-param {k}={v}" for k, v in c.get("planner_params", {}).items())
+    noise += "".join(f" --expert-param {k}={v}" for k, v in c.get("expert_params", {}).items())
     collect = (
         f"slide-gym collect --env {row.env_id} {_scene_options(trained.scene)} "
         f"--episodes {c.get('episodes')} "

@@ -252,3 +252,20 @@ def test_planner_param_overrides_are_checked_and_kept_in_the_identity():
     for bad, needle in [({"bogus": 1.0}, "allowed: u_star"), ({"u_star": -1.0}, "positive")]:
         with pytest.raises(ValueError, match=needle):
             CollectConfig(env_id=config.env_id, planner_params=bad)
+
+
+def test_expert_param_overrides_are_checked_and_kept_in_the_identity():
+    from slide_gym.datasets.config import CollectConfig
+
+    config = CollectConfig(env_id="SlideGym/TopSlide-v0", expert_params={"stop_overhang": 0.035})
+    assert config.agent_kwargs()["params"].stop_overhang == 0.035
+    again = CollectConfig.from_json(config.to_json())
+    assert again == config and again.differences(CollectConfig(env_id=config.env_id))
+    assert "expert_params" not in CollectConfig(env_id=config.env_id).to_json()  # old ids
+    for bad, needle in [
+        ({"stop_overhng": 0.03}, "allowed: approach_speed"),
+        ({"stop_overhang": -0.03}, "finite positive"),
+        ({"slide_speed": "fast"}, "must be a number"),
+    ]:
+        with pytest.raises(ValueError, match=needle):
+            CollectConfig(env_id=config.env_id, expert_params=bad)

@@ -91,3 +91,34 @@ def test_ramped_legs_start_and_stop_gently_and_arrive() -> None:
     steps = np.diff(np.r_[0.0, ramped[:, 0]])
     assert steps[0] < 0.25 * steps.max() and steps[-1] < 0.25 * steps.max()
     assert steps.max() <= 0.05 + 1e-12  # never faster than the joint speed
+
+
+def test_stop_overhang_is_off_by_default_and_checked() -> None:
+    assert ExpertParams().stop_overhang is None
+    assert ExpertParams(stop_overhang=0.03).stop_overhang == 0.03
+    for bad in (0.0, -0.01, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="stop_overhang"):
+            ExpertParams(stop_overhang=bad)
+
+
+def test_a_slide_with_a_stop_overhang_ends_early_and_still_succeeds() -> None:
+    """Seed 3's plan slides the square 38 steps past 3.5 cm of overhang (ee_delta); with
+    the stop the slide ends there, the plate is left graspable, and the episode is shorter."""
+    from agents.episode import run_episode
+    from agents.params import expert_params
+
+    def run(stop: float | None):
+        return run_episode(
+            "square",
+            "square",
+            seed=3,
+            env_id="SlideGym/TopSlide-v0",
+            control_mode="ee_delta",
+            params=expert_params({"stop_overhang": stop}),
+        )
+
+    plain, stopped = run(None), run(0.035)
+    assert plain.success and stopped.success
+    assert any("slide stopped" in e for e in stopped.expert.events)
+    assert not any("slide stopped" in e for e in plain.expert.events)
+    assert stopped.steps < plain.steps

@@ -283,3 +283,22 @@ def test_export_refuses_the_minari_folder(cluttered: Path, inside: str, capsys) 
     err = _one_line(["export", DATASET, "--out", str(out)], capsys)
     assert "inside the Minari datasets folder" in err and "MINARI_DATASETS_PATH" in err
     assert not (cluttered / "exports").exists() and not (cluttered / "test" / "new").exists()
+
+
+@pytest.mark.parametrize(
+    ("option", "needle"),
+    [
+        ("stop_overhng=0.03", "unknown expert parameters ['stop_overhng']; allowed: "),
+        ("stop_overhang=-1", "ExpertParams.stop_overhang must be a finite positive number"),
+        ("stop_overhang", "--expert-param takes NAME=NUMBER"),
+    ],
+)
+def test_collect_expert_params_are_checked_before_any_work(
+    option: str,
+    needle: str,
+    monkeypatch: pytest.MonkeyPatch,
+    minari_root: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    monkeypatch.setattr("slide_gym.jobs.run_cases", _refuse)
+    assert needle in _one_line([*COLLECT, "--expert-param", option], capsys)

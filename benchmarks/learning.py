@@ -372,6 +372,15 @@ ROWS = {
             ["--actions", "deltas", "--scaling", "standard", "--iterations", "10000"],
         ),
         Row(
+            "dp-ee-catalog-slide-stop",
+            "dp",
+            SLIDE,
+            {**CATALOG, **EE},
+            "slide-gym/catalog-slide-ee-stop-v1",
+            {"episodes": 400, "only_success": True, "expert_params": {"stop_overhang": 0.035}},
+            ["--iterations", "10000"],
+        ),
+        Row(
             "dp-ee-square-slide-nofeat",
             "dp",
             SLIDE,

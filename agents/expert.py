@@ -60,6 +60,7 @@ from agents.tracking import ContactTracker, cartesian_line, rise
 from agents.trajectory import Segment, time_segment
 from slide_gym.geometry import (
     ObjectShape,
+    Overhang,
     TableShape,
     overhang,
     quat_yaw,
@@ -289,8 +290,7 @@ class SlideGraspExpert:
         stop = self.params.stop_overhang
         if stop is None or self.obj is None or self.table is None:
             return False
-        placed = transform_polygon(self.obj.polygon, *self._object_pose(obs))
-        ov = overhang(placed, self.table.polygon)
+        ov = self._overhang_at(self._object_pose(obs))
         return bool(ov.u >= stop and ov.centroid_inside)
 
     def _stop_slide(self, step: _Step) -> None:
@@ -368,6 +368,11 @@ class SlideGraspExpert:
     def _object_pose(self, obs: dict[str, np.ndarray]) -> np.ndarray:
         pose = obs["object_pose"]
         return np.array([float(pose[0]), float(pose[1]), quat_yaw(pose[3:7])])
+
+    def _overhang_at(self, pose: np.ndarray) -> Overhang:
+        """The plate's overhang over the table at ``pose`` (x, y, yaw)."""
+        assert self.obj is not None and self.table is not None
+        return overhang(transform_polygon(self.obj.polygon, *pose), self.table.polygon)
 
     def _slide_params(self) -> list[tuple[str, SlideParams]]:
         """The planner settings to try in turn: the margins this plate leaves room for, then
@@ -457,8 +462,7 @@ class SlideGraspExpert:
     def _plan(self, obs: dict[str, np.ndarray]) -> None:
         assert self.obj is not None and self.table is not None and self.q_cmd is not None
         pose = self._object_pose(obs)
-        placed = transform_polygon(self.obj.polygon, *pose)
-        replan = self.report.replans > 0 or overhang(placed, self.table.polygon).u > 0
+        replan = self.report.replans > 0 or self._overhang_at(pose).u > 0
         attempts = self._slide_params()
         for k, (name, params) in enumerate(attempts):
             budget = self._budget_left()
@@ -620,7 +624,7 @@ class SlideGraspExpert:
             return self._lift_off(obs)
         inward = (pose[:2] - edge_point) * (1.0 if inside else -1.0)
         inward /= max(float(np.linalg.norm(inward)), 1e-9)
-        u = overhang(transform_polygon(self.obj.polygon, *pose), self.table.polygon).u
+        u = self._overhang_at(pose).u
         room = u - (keep - depth) - self.grasp_u_star - 0.001
         slack = min(PULL_BACK_SLACK, max(0.0, room))
         shift = np.r_[inward * (keep - depth + slack), 0.0]
@@ -686,8 +690,7 @@ class SlideGraspExpert:
         self.report.object_slid_pose = actual.tolist()
         self.report.slide_error_m = float(np.linalg.norm(actual[:2] - self.predicted[:2]))
         self.report.slide_error_rad = abs(wrap_angle(actual[2] - self.predicted[2]))
-        placed = transform_polygon(self.obj.polygon, *actual)
-        ov = overhang(placed, self.table.polygon)
+        ov = self._overhang_at(actual)
         ok, info = False, {"reason": "overhang below u_star or centroid off the table"}
         if ov.graspable(self.grasp_u_star):
             budget = self._budget_left()

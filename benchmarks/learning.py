@@ -96,6 +96,11 @@ SEED_GROUPS = {
         "dp-ee-square-slide-stop-seed1",
         "dp-ee-square-slide-stop-seed2",
     ],
+    "dp-ee-square-slide-stop-b256": [
+        "dp-ee-square-slide-stop-b256",
+        "dp-ee-square-slide-stop-b256-seed1",
+        "dp-ee-square-slide-stop-b256-seed2",
+    ],
 }
 """Rows that differ only in the training seed (0, 1, 2): ``report`` gives their mean and
 spread once all have run."""
@@ -145,6 +150,10 @@ def _ee_square_seeds(
     ]
 
 
+GPU_B256 = ["--device", "cuda", "--batch-size", "256", "--iterations", "6000"]
+GPU_B256 += ["--snapshot-every", "6000", "--val-episodes", "0"]
+"""Trained on a GPU (an H200 lent for a few minutes, six runs side by side): batches of 256,
+as many iterations as fitted; no simulator there, so ``run`` validates the snapshot here."""
 OFFSETS = ["--actions", "offsets"]
 """The chunks of the rows trained before per-step deltas became the default."""
 ROWS = {
@@ -417,6 +426,33 @@ ROWS = {
             "slide-gym/square-slide-ee-stop-v1",
             {**SQUARE_SLIDE, "expert_params": {"stop_overhang": 0.035}},
         ),
+        *_ee_square_seeds(
+            "dp-ee-square-slide-stop-b256",
+            GPU_B256,
+            "slide-gym/square-slide-ee-stop-v1",
+            {**SQUARE_SLIDE, "expert_params": {"stop_overhang": 0.035}},
+        ),
+        Row(
+            "dp-ee-square-slide-b256",
+            "dp",
+            SLIDE,
+            {**SQUARE, **EE},
+            "slide-gym/square-slide-ee-v1",
+            SQUARE_SLIDE,
+            GPU_B256,
+        ),
+        *(
+            Row(
+                "dp-ee-catalog-slide-stop-b256" + (f"-seed{s}" if s else ""),
+                "dp",
+                SLIDE,
+                {**CATALOG, **EE},
+                "slide-gym/catalog-slide-ee-stop-v1",
+                {"episodes": 400, "only_success": True, "expert_params": {"stop_overhang": 0.035}},
+                GPU_B256 + (["--seed", str(s)] if s else []),
+            )
+            for s in (0, 1)
+        ),
         Row(
             "dp-ee-square-slide-10k-ft",
             "dp",
@@ -543,6 +579,8 @@ def command(row: Row, models: Path) -> str:
         out = models / row.base
     args = " ".join(a.format(models=models) for a in trained.train)
     train = f"slide-gym train-dp {row.dataset} --out {out} {args}".rstrip()
+    if "--snapshot-every" in trained.train:
+        train += f"; slide-gym choose-checkpoint {out}"
     return f"{collect}; {train}; slide-gym evaluate {out} --env {row.env_id} {scene} {test}"
 
 
@@ -625,6 +663,8 @@ def run(row: Row, models: Path, out: Path) -> dict[str, Any]:
                 resume = ["--resume"] if (path / "checkpoint.pt").exists() else []
                 args = [a.format(models=models) for a in _trained(row).train]
                 _cli("train-dp", str(row.dataset), "--out", str(path), *args, *resume)
+            if "--snapshot-every" in row.train:  # trained without validation (a GPU run)
+                _cli("choose-checkpoint", str(path))
             agent = path
             training = json.loads((path / "policy.json").read_text())
     env_kwargs = dict(row.scene)
@@ -731,7 +771,7 @@ def latest_rows(out: Path) -> dict[str, dict[str, Any]]:
 def report(out: Path) -> Path:
     rows = latest_rows(out)
     lines = [
-        "| row | env | scene | demonstrations | training (1 core) | success (95 % CI) "
+        "| row | env | scene | demonstrations | training (1 core or GPU) | success (95 % CI) "
         "| mean length |",
         "|---|---|---|---|---|---|---|",
     ]
@@ -749,6 +789,11 @@ def report(out: Path) -> Path:
             seconds += t.get("base_train_time_s", 0.0)
         iters = (t.get("checkpoint") or {}).get("iteration") or t.get("steps")
         train = f"{seconds / 60:.0f} min, {iters} it" if seconds else "-"
+        batch = (t.get("training") or {}).get("batch_size", 64)
+        if seconds and batch != 64:
+            train += f" of {batch}"
+        if t.get("device") == "cuda":
+            train += " (GPU)"
         lo, hi = r["ci95"]
         mode = ", fingertip steps" if r["scene"].get("control_mode") == "ee_delta" else ""
         lines.append(

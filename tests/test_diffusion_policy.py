@@ -376,6 +376,7 @@ def test_a_dagger_round_of_a_grasp_skill_keeps_its_slide_skill(
         (["collect", "--episodes", "1", "--dataset-id", "t/x.y-v0"], "NAMESPACE/NAME-vK"),
         (["dagger", "--policy", "{empty}", "--out", "d", "--dataset-id", "tt/d-v0"], "policy.pt"),
         (["train-dp", "nobody/nothing-v0", "--out", "dp", "--init", "{empty}"], "policy.pt"),
+        (["choose-checkpoint", "{empty}"], "holds no snapshots"),
         (["train-dp", "nobody/nothing-v0", "--out", "dp", "--after", "{empty}"], "sliding policy"),
         (
             ["dagger", "--policy", "{empty}", "--skip-phases", "releese", "--out", "d"]
@@ -403,6 +404,61 @@ def test_bad_input_is_one_line_and_exit_2(minari_root, tmp_path, args, needle, c
     assert main(args) == 2
     err = capsys.readouterr().err
     assert needle in err and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.skipif(torch.cuda.is_available(), reason="this machine has a GPU")
+def test_training_on_a_missing_gpu_is_one_line_and_exit_2(minari_root, capsys):
+    assert main(["train-dp", "nobody/nothing-v0", "--out", "dp", "--device", "cuda"]) == 2
+    err = capsys.readouterr().err
+    assert "torch sees no GPU" in err and len(err.strip().splitlines()) == 1
+
+
+def test_snapshots_are_validated_after_training_and_the_best_becomes_the_policy(
+    dart, tmp_path, monkeypatch
+):
+    """A run without validation keeps its EMA weights every N iterations; choosing later
+    validates each once (resumable), records the rates and copies the best (the later one
+    on a tie) to the run's policy."""
+    from agents.learned import train as train_module
+
+    out = tmp_path / "run"
+    train_diffusion(
+        dart,
+        out,
+        config=TINY,
+        train=_config(40),
+        env_id=ENV_ID,
+        env_kwargs={"object": "square", "table": "square"},
+        progress=False,
+        snapshot_every=20,
+    )
+    assert sorted(p.name for p in (out / "snapshots").iterdir()) == ["20", "40"]
+    final = torch.load(out / "policy.pt", weights_only=False)["state_dict"]
+    last = torch.load(out / "snapshots" / "40" / "policy.pt", weights_only=False)["state_dict"]
+    for key in final:
+        torch.testing.assert_close(final[key], last[key])
+    rates = {20: 0.5, 40: 0.0}
+    runs = []
+
+    def fake_evaluate(policy, env_id, *, episodes, seed, env_kwargs, progress):
+        iteration = policy.card["checkpoint"]["iteration"]
+        runs.append(iteration)
+        rate = rates[iteration]
+        return {"success_rate": rate, "ci95": [0.0, 1.0], "episodes": episodes, "mean_length": 9}
+
+    monkeypatch.setattr("agents.evaluate.evaluate", fake_evaluate)
+    card = train_module.choose_snapshot(out, episodes=2)
+    assert runs == [20, 40] and card["checkpoint"]["iteration"] == 20
+    seed = train_module.VALIDATION_SEED
+    assert card["checkpoint"]["seeds"] == [seed, seed + 1]
+    chosen = torch.load(out / "policy.pt", weights_only=False)["state_dict"]
+    first = torch.load(out / "snapshots" / "20" / "policy.pt", weights_only=False)["state_dict"]
+    for key in chosen:
+        torch.testing.assert_close(chosen[key], first[key])
+    rows = {int(r["iteration"]): r for r in read_progress(out / "progress.csv")}
+    assert float(rows[20]["val_success_rate"]) == 0.5 and rows[40]["val_episodes"] == "2"
+    assert train_module.choose_snapshot(out, episodes=2)["checkpoint"]["iteration"] == 20
+    assert runs == [20, 40]  # nothing ran again
 
 
 def test_train_dp_defaults_are_the_configs():

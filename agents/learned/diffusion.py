@@ -198,8 +198,10 @@ class DiffusionModel(nn.Module):
         raw actions."""
         x0 = self.normalize_action(actions)
         cond = self.encoder(self.normalize_obs(obs).flatten(1))
-        noise = torch.randn(x0.shape, generator=generator)
+        # drawn from the (CPU) generator and moved: the same stream on any device
+        noise = torch.randn(x0.shape, generator=generator).to(x0.device)
         t = torch.randint(0, self.config.train_steps, (len(x0),), generator=generator)
+        t = t.to(x0.device)
         ab = self.alpha_bar[t].view(-1, 1, 1)
         noisy = ab.sqrt() * x0 + (1 - ab).sqrt() * noise
         return nn.functional.mse_loss(self.net(noisy, t, cond), noise)
@@ -240,10 +242,11 @@ class EMA:
     @torch.no_grad()
     def update(self, model: nn.Module) -> None:
         decay = min(self.max_decay, 1 - (1 + self.step) ** -self.power)
-        for mine, theirs in zip(self.model.parameters(), model.parameters(), strict=True):
-            mine.mul_(decay).add_(theirs.detach(), alpha=1 - decay)
-        for mine, theirs in zip(self.model.buffers(), model.buffers(), strict=True):
-            mine.copy_(theirs)
+        mine = list(self.model.parameters())
+        torch._foreach_mul_(mine, decay)
+        torch._foreach_add_(mine, [p.detach() for p in model.parameters()], alpha=1 - decay)
+        for buffer, theirs in zip(self.model.buffers(), model.buffers(), strict=True):
+            buffer.copy_(theirs)
         self.step += 1
 
     def state_dict(self) -> dict:

@@ -9,7 +9,13 @@ validation on held-out seeds, resume.
   seconds, and where validated, the success rate on validation seeds with its Wilson interval;
 - ``policy.pt`` / ``policy.json``: the EMA weights of the checkpoint with the best validation
   success (the latest if none validated), and its card;
-- ``learning_curve.png``: loss and validation success against iterations.
+- ``learning_curve.png``: loss and validation success against iterations;
+- ``snapshots/ITERATION/``: with ``snapshot_every``, the EMA weights every that many
+  iterations (and where Ctrl-C stops the run) as a policy folder each, for choosing the checkpoint after training
+  (:func:`choose_snapshot`) where the training machine cannot run the simulator.
+
+``device="cuda"`` trains on a GPU; batches, diffusion noise and the minibatch draws come
+from the same seeded CPU streams, and every saved policy holds CPU weights.
 
 Validation episodes use reset seeds from :data:`slide_gym.splits.VALIDATION_SEED`, never the
 test seeds of ``slide-gym evaluate`` (from 10000), so choosing the checkpoint does not peek
@@ -20,9 +26,11 @@ that was never stopped.
 
 from __future__ import annotations
 
+import copy
 import csv
 import json
 import math
+import shutil
 import signal
 import sys
 import threading
@@ -36,12 +44,21 @@ import torch
 
 from agents.learned.data import ChunkSampler, load_demonstrations
 from agents.learned.diffusion import EMA, DiffusionConfig, DiffusionModel
-from agents.learned.policy import DiffusionPolicy, save_policy
+from agents.learned.policy import (
+    CARD_FILE,
+    FIRST_FILE,
+    WEIGHTS_FILE,
+    DiffusionPolicy,
+    is_policy_dir,
+    save_policy,
+)
 from slide_gym.splits import VALIDATION_SEED
 
 CHECKPOINT_FILE = "checkpoint.pt"
 PROGRESS_FILE = "progress.csv"
 CURVE_FILE = "learning_curve.png"
+SNAPSHOT_DIR = "snapshots"
+DEVICES = ("cpu", "cuda")
 PROGRESS_FIELDS = (
     "iteration",
     "loss",
@@ -124,6 +141,8 @@ def train_diffusion(
     init: Path | None = None,
     only_success: bool = True,
     first: Path | None = None,
+    device: str = "cpu",
+    snapshot_every: int = 0,
 ) -> dict[str, Any]:
     """Train on Minari ``dataset`` into folder ``out`` (see the module docstring) and return
     the summary that ``policy.json`` also holds. ``env_id``/``env_kwargs``: the env the
@@ -179,6 +198,7 @@ def train_diffusion(
     else:
         stats = (*demos.input_stats(), *sampler.chunk_stats())
         model.set_stats(*(torch.from_numpy(a) for a in stats))
+    model.to(device)
     ema = EMA(model)
     optimizer = torch.optim.AdamW(
         model.parameters(), lr=train.learning_rate, weight_decay=train.weight_decay
@@ -190,7 +210,7 @@ def train_diffusion(
     noise = torch.Generator().manual_seed(train.seed)
     start, train_time, best = 0, 0.0, -1.0
     if resume and ckpt_path.exists():
-        blob = torch.load(ckpt_path, map_location="cpu", weights_only=False)
+        blob = torch.load(ckpt_path, map_location=device, weights_only=False)
         saved = (blob["config"], blob["train"], blob.get("only_success", True), blob.get("first"))
         first_key = None if first is None else str(first)
         if saved != (config.to_json(), _train_json(train), only_success, first_key):
@@ -224,6 +244,7 @@ def train_diffusion(
             "after_slide": first_model is not None,
         },
         "parameters": sum(p.numel() for p in model.parameters()),
+        "device": device,
     }
 
     def checkpoint(iteration: int) -> None:
@@ -257,7 +278,12 @@ def train_diffusion(
             if val is not None:
                 chosen |= {k: val[k] for k in ("success_rate", "ci95", "episodes", "seeds")}
                 chosen["seeds"] = [val["seeds"][0], val["seeds"][-1]]
-            save_policy(ema.model, out, {**summary, "checkpoint": chosen}, first_model)
+            save_policy(_on_cpu(ema.model), out, {**summary, "checkpoint": chosen}, first_model)
+
+    def snapshot(iteration: int) -> None:
+        chosen = {"iteration": iteration, "train_time_s": round(train_time, 1)}
+        folder = out / SNAPSHOT_DIR / str(iteration)
+        save_policy(_on_cpu(ema.model), folder, {**summary, "checkpoint": chosen}, first_model)
 
     bar = _progress_bar(train.iterations, start, progress)
     losses: list[float] = []
@@ -268,7 +294,9 @@ def train_diffusion(
         while iteration < train.iterations and not interrupted:
             tick = time.perf_counter()
             obs, actions = sampler.batch(rng, train.batch_size)
-            loss = model.loss(torch.from_numpy(obs), torch.from_numpy(actions), noise)
+            loss = model.loss(
+                torch.from_numpy(obs).to(device), torch.from_numpy(actions).to(device), noise
+            )
             optimizer.zero_grad()
             loss.backward()
             optimizer.step()
@@ -284,7 +312,7 @@ def train_diffusion(
                     last or (train.val_every and iteration % train.val_every == 0)
                 )
                 val = (
-                    _validate(ema.model, env_id, env_kwargs, train, first_model)
+                    _validate(_on_cpu(ema.model), env_id, env_kwargs, train, first_model)
                     if validate
                     else None
                 )
@@ -294,16 +322,104 @@ def train_diffusion(
                 losses = []
                 if validate or last:
                     choose(iteration, val)
+                if snapshot_every and (iteration % snapshot_every == 0 or last):
+                    snapshot(iteration)
                 checkpoint(iteration)
     finally:
         interrupted.restore()
         bar.close()
     if interrupted:
         checkpoint(iteration)
+        if snapshot_every and iteration > start:
+            snapshot(iteration)
         print(f"\ninterrupted: checkpoint at iteration {iteration} saved", file=sys.stderr)
         raise KeyboardInterrupt
     plot_learning_curve(out / PROGRESS_FILE, out / CURVE_FILE)
     return json.loads((out / "policy.json").read_text())
+
+
+def choose_snapshot(
+    out: Path, *, episodes: int = 20, seed: int = VALIDATION_SEED, progress: bool = False
+) -> dict[str, Any]:
+    """Validate every snapshot of the run in ``out`` (``snapshots/ITERATION``, written with
+    ``snapshot_every``) on ``episodes`` episodes from reset seed ``seed``, record each in
+    ``progress.csv`` (and the learning curve), and make the best one ``out``'s policy (the
+    later one on a tie, as during training); return its card. A snapshot already validated
+    with these episodes is not run again, so an interrupted choice resumes."""
+    from agents.evaluate import evaluate
+
+    out = Path(out)
+    folders = sorted(
+        (p for p in (out / SNAPSHOT_DIR).glob("*") if p.name.isdigit() and is_policy_dir(p)),
+        key=lambda p: int(p.name),
+    )
+    if not folders:
+        raise ValueError(
+            f"{str(out)!r} holds no snapshots ({SNAPSHOT_DIR}/ITERATION/{WEIGHTS_FILE}); train "
+            "with --snapshot-every N"
+        )
+    if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
+        raise ValueError(f"episodes must be a positive integer, got {episodes!r}")
+    rows = {int(r["iteration"]): r for r in read_progress(out / PROGRESS_FILE)}
+    best: tuple[float, int] | None = None
+    for folder in folders:
+        iteration = int(folder.name)
+        row = rows.setdefault(
+            iteration, {k: "" for k in PROGRESS_FIELDS} | {"iteration": iteration}
+        )
+        if str(row.get("val_episodes", "")) != str(episodes):
+            policy = DiffusionPolicy.load(folder, seed=_card_seed(folder))
+            val = evaluate(
+                policy,
+                policy.card["env_id"],
+                episodes=episodes,
+                seed=seed,
+                env_kwargs=policy.card.get("env_kwargs"),
+                progress=progress,
+            )
+            row |= {
+                "val_success_rate": val["success_rate"],
+                "val_ci_low": val["ci95"][0],
+                "val_ci_high": val["ci95"][1],
+                "val_episodes": val["episodes"],
+                "val_mean_length": val["mean_length"],
+            }
+            _write_progress(out / PROGRESS_FILE, rows)
+        rate = float(row["val_success_rate"])
+        if best is None or rate >= best[0]:
+            best = (rate, iteration)
+    assert best is not None
+    rate, iteration = best
+    folder = out / SNAPSHOT_DIR / str(iteration)
+    row = rows[iteration]
+    card = json.loads((folder / CARD_FILE).read_text())
+    low, high = float(row["val_ci_low"]), float(row["val_ci_high"])
+    card["checkpoint"] |= {
+        "success_rate": rate,
+        "ci95": [low, high],
+        "episodes": int(row["val_episodes"]),
+        "seeds": [seed, seed + int(row["val_episodes"]) - 1],
+    }
+    for name in (WEIGHTS_FILE, FIRST_FILE):
+        if (folder / name).is_file():
+            shutil.copyfile(folder / name, out / name)
+    (out / CARD_FILE).write_text(json.dumps(card, indent=2) + "\n")
+    plot_learning_curve(out / PROGRESS_FILE, out / CURVE_FILE)
+    return card
+
+
+def _card_seed(folder: Path) -> int:
+    card = json.loads((folder / CARD_FILE).read_text())
+    return int(card.get("training", {}).get("seed", 0))
+
+
+def _write_progress(path: Path, rows: dict[int, dict[str, Any]]) -> None:
+    tmp = path.with_suffix(".tmp")
+    with tmp.open("w", newline="") as f:
+        writer = csv.DictWriter(f, PROGRESS_FIELDS, extrasaction="ignore")
+        writer.writeheader()
+        writer.writerows(rows[k] for k in sorted(rows))
+    tmp.replace(path)
 
 
 class _InterruptFlag:
@@ -329,6 +445,25 @@ class _InterruptFlag:
         if self._previous is not None:
             signal.signal(signal.SIGINT, self._previous)
             self._previous = None
+
+
+def check_device(device: str) -> str:
+    """``device`` if torch can train there: ``"cpu"``, or ``"cuda"`` where a GPU is visible."""
+    if device not in DEVICES:
+        raise ValueError(f"device must be one of {', '.join(DEVICES)}, got {device!r}")
+    if device == "cuda" and not torch.cuda.is_available():
+        raise ValueError(
+            "device 'cuda': torch sees no GPU here (torch.cuda.is_available() is False); "
+            "train with device 'cpu'"
+        )
+    return device
+
+
+def _on_cpu(model: DiffusionModel) -> DiffusionModel:
+    """``model`` itself if it is on the CPU, else a CPU copy (what policies are saved as)."""
+    if next(model.parameters()).device.type == "cpu":
+        return model
+    return copy.deepcopy(model).cpu()
 
 
 def _train_json(train: TrainConfig) -> dict[str, Any]:

@@ -13,8 +13,10 @@ from slide_gym.splits import DAGGER_SEED, TEST_SEED, VALIDATION_SEED
 
 def _cmd_train_dp(args: argparse.Namespace) -> int:
     from agents.learned.diffusion import DiffusionConfig
-    from agents.learned.train import TrainConfig, train_diffusion
+    from agents.learned.train import TrainConfig, check_device, train_diffusion
     from slide_gym.datasets.store import dataset_metadata, load
+
+    check_device(args.device)  # before the dataset loads
 
     config = DiffusionConfig(
         channels=tuple(args.channels),
@@ -56,8 +58,18 @@ def _cmd_train_dp(args: argparse.Namespace) -> int:
         only_success=args.only_success,
         init=init,
         first=first,
+        device=args.device,
+        snapshot_every=args.snapshot_every,
     )
     print(json.dumps({"out": str(args.out), **summary}, indent=2))
+    return 0
+
+
+def _cmd_choose_checkpoint(args: argparse.Namespace) -> int:
+    from agents.learned.train import choose_snapshot
+
+    card = choose_snapshot(args.run, episodes=args.episodes, progress=True)
+    print(json.dumps({"run": str(args.run), "checkpoint": card["checkpoint"]}, indent=2))
     return 0
 
 
@@ -181,6 +193,20 @@ def add_parsers(sub: Any) -> None:
     p.add_argument("--val-episodes", type=int, default=20, metavar="N", help="0: never validate")
     p.add_argument("--resume", action="store_true", help="continue the run in DIR")
     p.add_argument(
+        "--device",
+        default="cpu",
+        choices=("cpu", "cuda"),
+        help="where to train (the saved policy acts on the CPU either way)",
+    )
+    p.add_argument(
+        "--snapshot-every",
+        type=int,
+        default=0,
+        metavar="N",
+        help="also keep the EMA weights every N iterations in DIR/snapshots/ (for "
+        "`slide-gym choose-checkpoint DIR` after training without the simulator); 0: never",
+    )
+    p.add_argument(
         "--init",
         metavar="POLICY_DIR",
         help="start from this trained policy's weights and network (fine-tuning; the "
@@ -195,6 +221,21 @@ def add_parsers(sub: Any) -> None:
     )
     add_only_success(p, "; DAgger rollouts are kept either way (their labels are the expert's)")
     p.set_defaults(func=_cmd_train_dp)
+
+    p = add_command(
+        sub,
+        "choose-checkpoint",
+        "validate a train-dp run's snapshots and make the best one its policy",
+        "For a run trained with --snapshot-every (e.g. on a GPU machine without the "
+        f"simulator, with --val-episodes 0): run each snapshot on validation seeds from "
+        f"{VALIDATION_SEED} (never the test seeds), record the rates in DIR/progress.csv and "
+        "the learning curve, and copy the best snapshot (the later one on a tie) to "
+        "DIR/policy.pt with its card. Snapshots already validated are not run again.",
+        ["slide-gym choose-checkpoint models/dp-square --episodes 20"],
+    )
+    p.add_argument("run", type=Path, metavar="DIR", help="a train-dp run folder")
+    p.add_argument("--episodes", type=int, default=20, metavar="N", help="per snapshot")
+    p.set_defaults(func=_cmd_choose_checkpoint)
 
     p = add_command(
         sub,

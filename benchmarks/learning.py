@@ -453,6 +453,19 @@ ROWS = {
             )
             for s in (0, 1)
         ),
+        *(
+            Row(
+                f"dp-ee-catalog-slide-stop-b256{suffix}-ft",
+                "dp",
+                SLIDE,
+                {**CATALOG, **EE},
+                "slide-gym/catalog-slide-ee-stop-v1",
+                {"episodes": 400, "only_success": True, "expert_params": {"stop_overhang": 0.035}},
+                ["--init", f"{{models}}/dp-ee-catalog-slide-stop-b256{suffix}"]
+                + ["--batch-size", "256", "--iterations", "3000", "--val-every", "0", *seed],
+            )
+            for suffix, seed in (("", []), ("-seed1", ["--seed", "1"]))
+        ),
         Row(
             "dp-ee-square-slide-10k-ft",
             "dp",

@@ -591,14 +591,36 @@ def test_a_skill_with_tip_axes_may_follow_a_slide_skill_without(dart, trained, t
 
 
 def test_the_grasp_skill_benchmark_refuses_a_policy_without_a_slide_skill(trained, capsys):
-    import importlib.util
-    from pathlib import Path
-
-    path = Path(__file__).resolve().parents[1] / "benchmarks" / "grasp_skill.py"
-    spec = importlib.util.spec_from_file_location("grasp_skill", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = _benchmark("grasp_skill")
     assert module.main([str(trained), "--episodes", "1"]) == 2
     assert "not a skill trained with --after" in capsys.readouterr().err
     assert module.main([str(trained), "--episodes", "0"]) == 2
+
+
+def _benchmark(name: str):
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(name, path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_slide_failures_names_each_ending(trained, tmp_path, capsys):
+    module = _benchmark("slide_failures")
+    kind = module.failure_kind
+    assert kind(True, 0.3, False, True) == "pushed off"
+    assert kind(False, 0.001, False, True) == "never moved"
+    assert kind(False, 0.2, True, True) == "graspable, still touched"
+    assert kind(False, 0.2, False, False) == "short of u*"
+    out = tmp_path / "failures.jsonl"
+    assert module.main([str(trained), "--seeds", "20000-20000", "--out", str(out)]) == 0
+    (summary,) = [json.loads(line) for line in out.read_text().splitlines()]
+    (episode,) = summary["results"]
+    assert summary["episodes"] == 1 and episode["seed"] == 20000
+    assert episode["success"] or episode["kind"] in summary["failures"]
+    assert module.main([str(trained), "--seeds", "20000"]) == 2
+    assert "--seeds FIRST-LAST" in capsys.readouterr().err

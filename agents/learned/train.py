@@ -11,8 +11,9 @@ validation on held-out seeds, resume.
   success (the latest if none validated), and its card;
 - ``learning_curve.png``: loss and validation success against iterations;
 - ``snapshots/ITERATION/``: with ``snapshot_every``, the EMA weights every that many
-  iterations (and where Ctrl-C stops the run) as a policy folder each, for choosing the checkpoint after training
-  (:func:`choose_snapshot`) where the training machine cannot run the simulator.
+  iterations (and where Ctrl-C stops the run) as a policy folder each, for choosing the
+  checkpoint after training (:func:`choose_snapshot`) where the training machine cannot run
+  the simulator.
 
 ``device="cuda"`` trains on a GPU; batches, diffusion noise and the minibatch draws come
 from the same seeded CPU streams, and every saved policy holds CPU weights.

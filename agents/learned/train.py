@@ -378,13 +378,7 @@ def choose_snapshot(
                 env_kwargs=policy.card.get("env_kwargs"),
                 progress=progress,
             )
-            row |= {
-                "val_success_rate": val["success_rate"],
-                "val_ci_low": val["ci95"][0],
-                "val_ci_high": val["ci95"][1],
-                "val_episodes": val["episodes"],
-                "val_mean_length": val["mean_length"],
-            }
+            row |= _val_fields(val)
             _write_progress(out / PROGRESS_FILE, rows)
         rate = float(row["val_success_rate"])
         if best is None or rate >= best[0]:
@@ -497,14 +491,19 @@ def _progress_row(
         "train_time_s": round(train_time, 2),
     }
     if val is not None:
-        row |= {
-            "val_success_rate": val["success_rate"],
-            "val_ci_low": val["ci95"][0],
-            "val_ci_high": val["ci95"][1],
-            "val_episodes": val["episodes"],
-            "val_mean_length": val["mean_length"],
-        }
+        row |= _val_fields(val)
     return {k: row.get(k, "") for k in PROGRESS_FIELDS}
+
+
+def _val_fields(val: dict[str, Any]) -> dict[str, Any]:
+    """The progress columns of a validation result."""
+    return {
+        "val_success_rate": val["success_rate"],
+        "val_ci_low": val["ci95"][0],
+        "val_ci_high": val["ci95"][1],
+        "val_episodes": val["episodes"],
+        "val_mean_length": val["mean_length"],
+    }
 
 
 def _append_progress(path: Path, row: dict[str, Any]) -> None:

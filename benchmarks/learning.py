@@ -154,6 +154,9 @@ GPU_B256 = ["--device", "cuda", "--batch-size", "256", "--iterations", "6000"]
 GPU_B256 += ["--snapshot-every", "6000", "--val-episodes", "0"]
 """Trained on a GPU (an H200 lent for a few minutes, six runs side by side): batches of 256,
 as many iterations as fitted; no simulator there, so ``run`` validates the snapshot here."""
+CPU_B256 = ["--batch-size", "256", "--iterations", "10000", "--val-every", "5000"]
+"""Batches of 256 on one core for 10000 iterations (about 75 minutes): the GPU rows' recipe
+with two thirds more samples, within the 90 minutes a headline run may take on one core."""
 OFFSETS = ["--actions", "offsets"]
 """The chunks of the rows trained before per-step deltas became the default."""
 ROWS = {
@@ -465,6 +468,24 @@ ROWS = {
                 + ["--batch-size", "256", "--iterations", "3000", "--val-every", "0", *seed],
             )
             for suffix, seed in (("", []), ("-seed1", ["--seed", "1"]))
+        ),
+        Row(
+            "dp-ee-square-slide-stop-b256-10k",
+            "dp",
+            SLIDE,
+            {**SQUARE, **EE},
+            "slide-gym/square-slide-ee-stop-v1",
+            {**SQUARE_SLIDE, "expert_params": {"stop_overhang": 0.035}},
+            CPU_B256,
+        ),
+        Row(
+            "dp-ee-catalog-slide-stop-b256-10k",
+            "dp",
+            SLIDE,
+            {**CATALOG, **EE},
+            "slide-gym/catalog-slide-ee-stop-v1",
+            {"episodes": 400, "only_success": True, "expert_params": {"stop_overhang": 0.035}},
+            CPU_B256,
         ),
         Row(
             "dp-ee-square-slide-10k-ft",

@@ -11,6 +11,7 @@ import json
 import sys
 import time
 import warnings
+from collections import Counter
 from pathlib import Path
 from typing import Any
 
@@ -141,6 +142,30 @@ def _open_agent(
     return None, load_model(model_path), read_model_card(model_path)
 
 
+ENDINGS = ("success", "fell_off", "time_limit", "max_steps", "other")
+"""How an evaluated episode ended (``results[i]["ended"]``): it succeeded, the plate fell
+off the table (the envs end there), the env's time limit ran out, ``max_steps`` cut it, or
+it terminated for another reason (e.g. a goal env's own ending)."""
+
+
+def episode_ending(success: bool, terminated: bool, truncated: bool, info: dict) -> str:
+    """Which of :data:`ENDINGS` an episode that stopped with these flags reached."""
+    if success:
+        return "success"
+    if terminated and info.get("fell_off"):
+        return "fell_off"
+    if truncated:
+        return "time_limit"
+    return "other" if terminated else "max_steps"
+
+
+def failure_summary(ended: dict[str, int]) -> str:
+    """``"; failures: 9 fell off, 10 time limit"`` from an evaluation's ``ended`` counts
+    (empty where every episode succeeded)."""
+    parts = [f"{ended[kind]} {kind.replace('_', ' ')}" for kind in ENDINGS[1:] if ended.get(kind)]
+    return f"; failures: {', '.join(parts)}" if parts else ""
+
+
 def evaluate(
     agent: Any,
     env_id: str,
@@ -179,8 +204,9 @@ def evaluate(
 
     Returns:
         ``{"agent", "env_id", "env_kwargs", "episodes", "successes", "success_rate", "ci95",
-        "mean_length", "seeds", "results": [{"seed", "success", "length", "return",
-        "randomization"}], "wall_time_s"}`` (``randomization``: the episode's drawn values).
+        "mean_length", "ended", "seeds", "results": [{"seed", "success", "ended", "length",
+        "return", "randomization"}], "wall_time_s"}`` (``randomization``: the episode's drawn
+        values; ``ended``: one of :data:`ENDINGS` per episode, and their counts).
     """
     if not _is_int(episodes) or episodes < 1:
         raise ValueError(f"episodes must be a positive integer, got {episodes!r}")
@@ -241,10 +267,12 @@ def evaluate(
                     expert.close()
             # the envs terminate on success: an episode cut by max_steps has not succeeded
             success = bool((terminated or truncated) and info["is_success"])
+            ended = episode_ending(success, terminated, truncated, info)
             results.append(
                 {
                     "seed": ep_seed,
                     "success": success,
+                    "ended": ended,
                     "length": steps,
                     "return": total,
                     "randomization": drawn,
@@ -252,9 +280,10 @@ def evaluate(
             )
             if progress:
                 done = sum(r["success"] for r in results)
+                outcome = "success" if success else f"failure ({ended.replace('_', ' ')})"
                 print(
                     f"episode {i + 1}/{episodes} seed {ep_seed}: "
-                    f"{'success' if success else 'failure'} after {steps} steps "
+                    f"{outcome} after {steps} steps "
                     f"({done}/{i + 1} so far)",
                     file=sys.stderr,
                     flush=True,
@@ -273,6 +302,7 @@ def evaluate(
         "success_rate": k / len(results),
         "ci95": [lo, hi],
         "mean_length": float(np.mean([r["length"] for r in results])),
+        "ended": dict(Counter(r["ended"] for r in results)),
         "seeds": [r["seed"] for r in results],
         "results": results,
         "wall_time_s": time.perf_counter() - wall,

@@ -724,6 +724,7 @@ def run(row: Row, models: Path, out: Path) -> dict[str, Any]:
         "success_rate": result["success_rate"],
         "ci95": result["ci95"],
         "mean_length": result["mean_length"],
+        "ended": result["ended"],
         "test_seeds": [TEST_SEED, TEST_SEED + EPISODES - 1],
         "eval_wall_s": result["wall_time_s"],
         "wall_s": time.perf_counter() - start,
@@ -806,8 +807,8 @@ def report(out: Path) -> Path:
     rows = latest_rows(out)
     lines = [
         "| row | env | scene | demonstrations | training (1 core or GPU) | success (95 % CI) "
-        "| mean length |",
-        "|---|---|---|---|---|---|---|",
+        "| mean length | failures |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for name in ROWS:
         if name not in rows:
@@ -834,7 +835,7 @@ def report(out: Path) -> Path:
             f"| {name} | {r['env_id'].split('/')[1]} | {r['scene']['object']} on "
             f"{r['scene']['table']}{mode} | {n_demo} | {train} | "
             f"**{100 * r['success_rate']:.0f} %** ({100 * lo:.0f}-{100 * hi:.0f}) | "
-            f"{r['mean_length']:.0f} |"
+            f"{r['mean_length']:.0f} | {_failures(r)} |"
         )
     spread = _seed_spread(rows)
     if spread:
@@ -853,6 +854,15 @@ def report(out: Path) -> Path:
     md.write_text("\n".join(lines) + "\n")
     _plot_curves(out)
     return md
+
+
+def _failures(row: dict[str, Any]) -> str:
+    """How the row's failed test episodes ended (``-`` for rows run before it was kept)."""
+    from agents.evaluate import failure_summary
+
+    if "ended" not in row:
+        return "-"
+    return failure_summary(row["ended"]).removeprefix("; failures: ") or "none"
 
 
 def _seed_spread(rows: dict[str, dict[str, Any]]) -> list[str]:

@@ -19,7 +19,12 @@ import torch  # noqa: E402
 
 import slide_gym  # noqa: E402,F401 - registers the environments
 from agents.bc import model_card_path, train_bc, write_model_card  # noqa: E402
-from agents.evaluate import evaluate, wilson_interval  # noqa: E402
+from agents.evaluate import (  # noqa: E402
+    episode_ending,
+    evaluate,
+    failure_summary,
+    wilson_interval,
+)
 
 torch.set_num_threads(1)
 
@@ -185,6 +190,8 @@ def test_evaluate_runs_a_saved_model_on_held_out_seeds(trained):
     assert result["seeds"] == [10_000, 10_001]
     assert [r["seed"] for r in result["results"]] == result["seeds"]
     assert all(r["length"] == 20 and r["success"] is False for r in result["results"])
+    assert all(r["ended"] == "max_steps" for r in result["results"])
+    assert result["ended"] == {"max_steps": 2}
     assert all(isinstance(r["return"], float) for r in result["results"])
     assert result["successes"] == 0 and result["success_rate"] == 0.0
     assert result["mean_length"] == 20.0
@@ -193,6 +200,27 @@ def test_evaluate_runs_a_saved_model_on_held_out_seeds(trained):
     # the same seeds give the same episodes
     again = evaluate(str(path), ENV_ID, episodes=1, seed=10_001, max_steps=20)
     assert again["results"][0] == result["results"][1]
+
+
+@pytest.mark.parametrize(
+    ("flags", "info", "ended"),
+    [
+        ((True, True, False), {"fell_off": False}, "success"),
+        ((False, True, False), {"fell_off": True}, "fell_off"),
+        ((False, False, True), {"fell_off": False}, "time_limit"),
+        ((False, True, False), {}, "other"),
+        ((False, False, False), {"fell_off": False}, "max_steps"),
+    ],
+)
+def test_episode_ending_names_how_an_episode_stopped(flags, info, ended):
+    assert episode_ending(*flags, info) == ended
+
+
+def test_failure_summary_counts_the_failed_endings_only():
+    assert failure_summary({"success": 80, "fell_off": 9, "time_limit": 11}) == (
+        "; failures: 9 fell off, 11 time limit"
+    )
+    assert failure_summary({"success": 3}) == ""
 
 
 def test_model_card_supplies_env_kwargs_that_explicit_ones_override(trained, tmp_path):

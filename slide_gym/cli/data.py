@@ -216,7 +216,7 @@ def _cmd_train_bc(args: argparse.Namespace) -> int:
 
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
-    from agents.evaluate import evaluate
+    from agents.evaluate import evaluate, failure_summary
 
     args.object = _split_scene(args, "evaluate", TEST_SEED)
     env_kwargs: dict[str, Any] = {}
@@ -246,7 +246,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
             f"{result['agent']} in {result['env_id']}: {result['successes']} of "
             f"{result['episodes']} succeeded ({100 * result['success_rate']:.0f} %, 95 % "
             f"interval {100 * lo:.0f}-{100 * hi:.0f} %), mean length "
-            f"{result['mean_length']:.0f} steps"
+            f"{result['mean_length']:.0f} steps{failure_summary(result['ended'])}"
         )
     return 0
 

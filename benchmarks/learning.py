@@ -101,6 +101,11 @@ SEED_GROUPS = {
         "dp-ee-square-slide-stop-b256-seed1",
         "dp-ee-square-slide-stop-b256-seed2",
     ],
+    "dp-ee-square-slide-stop-b256-10k": [
+        "dp-ee-square-slide-stop-b256-10k",
+        "dp-ee-square-slide-stop-b256-10k-seed1",
+        "dp-ee-square-slide-stop-b256-10k-seed2",
+    ],
 }
 """Rows that differ only in the training seed (0, 1, 2): ``report`` gives their mean and
 spread once all have run."""
@@ -156,7 +161,7 @@ GPU_B256 += ["--snapshot-every", "6000", "--val-episodes", "0"]
 as many iterations as fitted; no simulator there, so ``run`` validates the snapshot here."""
 CPU_B256 = ["--batch-size", "256", "--val-every", "5000"]
 """Batches of 256 on one core (0.22 s per iteration on an AMD EPYC core with the other core
-training too: 10000 iterations in 37 minutes, 20000 in 75), validated every 5000."""
+training too: 10000 iterations in 37-39 minutes, 20000 in 79), validated every 5000."""
 OFFSETS = ["--actions", "offsets"]
 """The chunks of the rows trained before per-step deltas became the default."""
 ROWS = {
@@ -469,14 +474,11 @@ ROWS = {
             )
             for suffix, seed in (("", []), ("-seed1", ["--seed", "1"]))
         ),
-        Row(
+        *_ee_square_seeds(
             "dp-ee-square-slide-stop-b256-10k",
-            "dp",
-            SLIDE,
-            {**SQUARE, **EE},
+            [*CPU_B256, "--iterations", "10000"],
             "slide-gym/square-slide-ee-stop-v1",
             {**SQUARE_SLIDE, "expert_params": {"stop_overhang": 0.035}},
-            [*CPU_B256, "--iterations", "10000"],
         ),
         Row(
             "dp-ee-catalog-slide-stop-b256-20k",

@@ -13,8 +13,8 @@ Runs the policy (a ``slide-gym train-dp`` folder) in its own env on the reset se
   centroid on the table) but the robot still touching it, so the slide never ended;
 - ``short of u*``: the time ran out with the plate moved but not graspable.
 
-Prints the counts and appends one JSON line (the policy, the seeds, the counts and every
-episode) to ``--out`` if given.
+Prints the counts (also successes per object and table) and appends one JSON line (the
+policy, the seeds, the counts and every episode) to ``--out`` if given.
 """
 
 from __future__ import annotations
@@ -64,6 +64,8 @@ def run_episode(env: Any, policy: Any, seed: int) -> dict[str, Any]:
     success = bool(info["is_success"])
     record = {
         "seed": seed,
+        "object": info["object"],
+        "table": info["table"],
         "success": success,
         "length": steps,
         "moved_m": round(moved, 4),
@@ -76,6 +78,16 @@ def run_episode(env: Any, policy: Any, seed: int) -> dict[str, Any]:
             bool(info["fell_off"]), moved, bool(info["graspable"]), bool(info["touching_robot"])
         )
     return record
+
+
+def by_scene(episodes: list[dict[str, Any]]) -> dict[str, list[int]]:
+    """Successes and episodes for each ``object/table`` pair, most episodes first."""
+    tally: dict[str, list[int]] = {}
+    for e in episodes:
+        t = tally.setdefault(f"{e['object']}/{e['table']}", [0, 0])
+        t[0] += e["success"]
+        t[1] += 1
+    return dict(sorted(tally.items(), key=lambda kv: (-kv[1][1], kv[0])))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -121,6 +133,7 @@ def main(argv: list[str] | None = None) -> int:
         "episodes": len(episodes),
         "successes": sum(e["success"] for e in episodes),
         "failures": dict(kinds.most_common()),
+        "by_scene": by_scene(episodes),
         "results": episodes,
     }
     print(json.dumps({k: v for k, v in summary.items() if k != "results"}, indent=2))

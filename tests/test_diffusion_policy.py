@@ -622,5 +622,8 @@ def test_slide_failures_names_each_ending(trained, tmp_path, capsys):
     (episode,) = summary["results"]
     assert summary["episodes"] == 1 and episode["seed"] == 20000
     assert episode["success"] or episode["kind"] in summary["failures"]
+    assert summary["by_scene"] == {
+        f"{episode['object']}/{episode['table']}": [int(episode["success"]), 1]
+    }
     assert module.main([str(trained), "--seeds", "20000"]) == 2
     assert "--seeds FIRST-LAST" in capsys.readouterr().err

@@ -79,36 +79,6 @@ def _grasp_skill_row(suffix: str, version: str, train: list[str]) -> Row:
     )
 
 
-SEED_GROUPS = {
-    "dp-square-slide": ["dp-square-slide", "dp-square-slide-seed1", "dp-square-slide-seed2"],
-    "dp-ee-square-slide-10k": [
-        "dp-ee-square-slide-10k",
-        "dp-ee-square-slide-10k-seed1",
-        "dp-ee-square-slide-10k-seed2",
-    ],
-    "dp-ee-square-slide-wide": [
-        "dp-ee-square-slide-wide",
-        "dp-ee-square-slide-wide-seed1",
-        "dp-ee-square-slide-wide-seed2",
-    ],
-    "dp-ee-square-slide-stop": [
-        "dp-ee-square-slide-stop",
-        "dp-ee-square-slide-stop-seed1",
-        "dp-ee-square-slide-stop-seed2",
-    ],
-    "dp-ee-square-slide-stop-b256": [
-        "dp-ee-square-slide-stop-b256",
-        "dp-ee-square-slide-stop-b256-seed1",
-        "dp-ee-square-slide-stop-b256-seed2",
-    ],
-    "dp-ee-square-slide-stop-b256-10k": [
-        "dp-ee-square-slide-stop-b256-10k",
-        "dp-ee-square-slide-stop-b256-10k-seed1",
-        "dp-ee-square-slide-stop-b256-10k-seed2",
-    ],
-}
-"""Rows that differ only in the training seed (0, 1, 2): ``report`` gives their mean and
-spread once all have run."""
 HORIZON_ROWS = {"dp-ee-square-slide-10k": 2, "dp-ee-catalog-slide": 2}
 """Rows whose trained policy is also tested at another action horizon (chosen on validation
 seeds with ``horizon``): row ``NAME-hK``."""
@@ -578,6 +548,13 @@ ROWS.update(
         for name, k in HORIZON_ROWS.items()
     }
 )
+SEED_GROUPS = {
+    name: [name, f"{name}-seed1", f"{name}-seed2"]
+    for name in ROWS
+    if f"{name}-seed1" in ROWS and f"{name}-seed2" in ROWS
+}
+"""Rows that differ only in the training seed (0, 1, 2; rows ``name``, ``name-seed1``,
+``name-seed2``): ``report`` gives their mean and spread once all have run."""
 
 
 def command(row: Row, models: Path) -> str:

@@ -450,14 +450,17 @@ ROWS = {
             "slide-gym/square-slide-ee-stop-v1",
             {**SQUARE_SLIDE, "expert_params": {"stop_overhang": 0.035}},
         ),
-        Row(
-            "dp-ee-catalog-slide-stop-b256-20k",
-            "dp",
-            SLIDE,
-            {**CATALOG, **EE},
-            "slide-gym/catalog-slide-ee-stop-v1",
-            {"episodes": 400, "only_success": True, "expert_params": {"stop_overhang": 0.035}},
-            [*CPU_B256, "--iterations", "20000"],
+        *(
+            Row(
+                "dp-ee-catalog-slide-stop-b256-20k" + suffix,
+                "dp",
+                SLIDE,
+                {**CATALOG, **EE},
+                "slide-gym/catalog-slide-ee-stop-v1",
+                {"episodes": 400, "only_success": True, "expert_params": {"stop_overhang": 0.035}},
+                [*CPU_B256, "--iterations", "20000", *seed],
+            )
+            for suffix, seed in (("", []), ("-seed1", ["--seed", "1"]))
         ),
         Row(
             "dp-ee-square-slide-10k-ft",

@@ -62,37 +62,32 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if not args.rows.is_file():
         parser.error(f"no rows file {args.rows}")
-    from agents.episode import run_episode
+    from slide_gym.bench.execute import execute_case
 
     enable_anchors(args.on)
     rows = [json.loads(line) for line in args.rows.read_text().splitlines() if line.strip()]
     cases = [r for r in rows if not (args.failed and r["success"])]
-    key = ("object", "table", "seed", "scale")
+    key = ("object", "table", "seed", "scale", "on")
     done = set()
     if args.out.is_file():
         done = {tuple(json.loads(x)[k] for k in key) for x in args.out.read_text().splitlines()}
     with args.out.open("a") as out:
         for r in cases:
-            if tuple(r[k] for k in key) in done:
+            result = {k: r[k] for k in key[:-1]} | {"on": args.on}
+            if tuple(result.values()) in done:
                 continue
-            record = run_episode(
-                r["object"],
-                r["table"],
-                scale=r["scale"],
-                seed=r["seed"],
-                thickness=r.get("thickness"),
-            )
-            result = {k: r[k] for k in key} | {
-                "on": args.on,
-                "success": bool(record.success),
-                "failure": record.failure,
-                "slides_that_lost_the_plate": sum(e.startswith(LOST) for e in record.expert.events),
+            row = execute_case(r["case"])  # the row's own planner, budget, thickness, env
+            result |= {
+                "success": row["success"],
+                "failure": row["failure"],
+                "slides_that_lost_the_plate": sum(e.startswith(LOST) for e in row["events"]),
                 "was_success": bool(r["success"]),
             }
             out.write(json.dumps(result) + "\n")
             out.flush()
-            print(*(result[k] for k in (*key, "success", "failure")), flush=True)
+            print(*(result[k] for k in (*key[:-1], "success", "failure")), flush=True)
     results = [json.loads(x) for x in args.out.read_text().splitlines()]
+    results = [x for x in results if x["on"] == args.on]
     print(
         json.dumps(
             {

@@ -590,27 +590,17 @@ def test_a_skill_with_tip_axes_may_follow_a_slide_skill_without(dart, trained, t
     assert action.shape == env.action_space.shape
 
 
-def test_the_grasp_skill_benchmark_refuses_a_policy_without_a_slide_skill(trained, capsys):
-    module = _benchmark("grasp_skill")
+def test_the_grasp_skill_benchmark_refuses_a_policy_without_a_slide_skill(
+    trained, capsys, load_benchmark
+):
+    module = load_benchmark("grasp_skill")
     assert module.main([str(trained), "--episodes", "1"]) == 2
     assert "not a skill trained with --after" in capsys.readouterr().err
     assert module.main([str(trained), "--episodes", "0"]) == 2
 
 
-def _benchmark(name: str):
-    import importlib.util
-    from pathlib import Path
-
-    path = Path(__file__).resolve().parents[1] / "benchmarks" / f"{name}.py"
-    spec = importlib.util.spec_from_file_location(name, path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-def test_slide_failures_names_each_ending(trained, tmp_path, capsys):
-    module = _benchmark("slide_failures")
+def test_slide_failures_names_each_ending(trained, tmp_path, capsys, load_benchmark):
+    module = load_benchmark("slide_failures")
     kind = module.failure_kind
     assert kind(True, 0.3, False, True) == "pushed off"
     assert kind(False, 0.001, False, True) == "never moved"

@@ -2,9 +2,8 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
+from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
 
@@ -13,20 +12,12 @@ import pytest
 import slide_gym.sim as sim
 
 
-def friction_anchor() -> ModuleType:
-    path = Path(__file__).resolve().parents[1] / "benchmarks" / "friction_anchor.py"
-    spec = importlib.util.spec_from_file_location("friction_anchor", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
-
-
-def test_anchors_are_set_on_the_robots_links_only(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_anchors_are_set_on_the_robots_links_only(
+    monkeypatch: pytest.MonkeyPatch, load_benchmark: Callable[[str], ModuleType]
+) -> None:
     for name in ("load_urdf", "create_prism_body"):  # restored after the test
         monkeypatch.setattr(sim.Simulation, name, getattr(sim.Simulation, name))
-    friction_anchor().enable_anchors("robot")
+    load_benchmark("friction_anchor").enable_anchors("robot")
     world = sim.Simulation()
     calls: list[tuple[int, int, dict]] = []
     change = world.client.changeDynamics
@@ -42,14 +33,18 @@ def test_anchors_are_set_on_the_robots_links_only(monkeypatch: pytest.MonkeyPatc
 
 
 def test_reruns_the_rows_cases_and_resumes(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture,
+    load_benchmark: Callable[[str], ModuleType],
 ) -> None:
     for name in ("load_urdf", "create_prism_body"):
         monkeypatch.setattr(sim.Simulation, name, getattr(sim.Simulation, name))
-    module = friction_anchor()
+    module = load_benchmark("friction_anchor")
     rows = tmp_path / "rows.jsonl"
-    case = {"object": "square", "table": "square", "seed": 0, "scale": 1.0, "success": True}
-    rows.write_text(json.dumps(case) + "\n")
+    scene = {"object": "square", "table": "square", "seed": 0, "scale": 1.0}
+    case = scene | {"planner": "regions", "time_budget": 10.0}  # as bench execute writes it
+    rows.write_text(json.dumps(scene | {"case": case, "success": True}) + "\n")
     out = tmp_path / "out.jsonl"
     assert module.main([str(rows), "--on", "robot", "--out", str(out)]) == 0
     (result,) = [json.loads(line) for line in out.read_text().splitlines()]
@@ -61,7 +56,11 @@ def test_reruns_the_rows_cases_and_resumes(
     assert summary["episodes"] == 1
 
 
-def test_a_missing_rows_file_is_a_usage_error(tmp_path: Path) -> None:
+def test_a_missing_rows_file_is_a_usage_error(
+    tmp_path: Path, load_benchmark: Callable[[str], ModuleType]
+) -> None:
     with pytest.raises(SystemExit) as exit_info:
-        friction_anchor().main([str(tmp_path / "none.jsonl"), "--out", str(tmp_path / "o")])
+        load_benchmark("friction_anchor").main(
+            [str(tmp_path / "none.jsonl"), "--out", str(tmp_path / "o")]
+        )
     assert exit_info.value.code == 2

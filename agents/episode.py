@@ -45,6 +45,7 @@ def run_episode(
     env_id: str = ENV_ID,
     object_pose: Any = None,
     control_mode: str = "joint_delta",
+    physics: dict[str, Any] | None = None,
     **planner_params: Any,
 ) -> EpisodeRecord:
     """Run the planner agent for one seeded episode; success is the env's ``is_success``.
@@ -54,6 +55,7 @@ def run_episode(
     (m) overrides the object's. ``env_id``: one of :data:`slide_gym.DICT_ENV_IDS`; the slide
     envs end when the plate is left graspable. ``object_pose``: ``(x, y, yaw)`` instead of the
     seed's. ``control_mode``: the env's and the agent's (``"joint_delta"`` or ``"ee_delta"``).
+    ``physics``: the env's physics settings (``{"friction_anchor": True}``), if any.
 
     ``params`` (execution) and ``planner_params`` (:class:`~slide_gym.planning.params.SlideParams`
     overrides) go to :class:`~agents.planner_agent.PlannerAgent`.
@@ -81,6 +83,7 @@ def run_episode(
         thickness=thickness,
         render_mode="rgb_array" if video else None,
         control_mode=control_mode,
+        **({"physics": physics} if physics else {}),
     )
     agent = PlannerAgent(
         planner,

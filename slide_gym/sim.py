@@ -16,9 +16,10 @@ import hashlib
 import os
 import sys
 import tempfile
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -76,7 +77,12 @@ class PhysicsParams:
       0.76 mm card was 2.76 mm thick to the fingertip and the table top 1 mm high;
     - ``solver_iterations`` (100) at ``timestep`` while the robot is within
       ``near_distance`` of the object: fewer iterations let the pressed fingertip creep over
-      the plate (50: median lag 1.4 cm on a card, 30: cards lost).
+      the plate (50: median lag 1.4 cm on a card, 30: cards lost);
+    - ``friction_anchor`` (off by default, so results at the default stay reproducible):
+      PyBullet's ``frictionAnchor`` on every link of the robot. Bullet re-creates its
+      friction constraints at each step's contact points, so a pressed fingertip's static
+      friction drifts and the fingertip creeps over a light plate; the anchor keeps each
+      contact's anchor point across steps (docs/benchmarks.md, "Friction anchors").
 
     Farther from the object ("free": the arm moving, the fingers touching each other or the
     table) the world steps ``free_step_factor`` times longer with ``free_solver_iterations``
@@ -102,6 +108,33 @@ class PhysicsParams:
     free_cone_friction: bool = False
     """PyBullet's implicit friction cone while the robot is free (False: the cheaper pyramid,
     two independent directions); near the object the cone is always on."""
+    friction_anchor: bool = False
+    """PyBullet's friction anchor on every link of URDF bodies (the robot)."""
+
+    @classmethod
+    def of(
+        cls, params: PhysicsParams | Mapping[str, Any] | None, timestep: float | None = None
+    ) -> PhysicsParams:
+        """``params`` itself, the defaults for None, or PhysicsParams from a dict of its fields
+        (JSON-friendly, as ``gym.make(..., physics={...})`` and ``--physics NAME=VALUE`` pass
+        it: whole-number fields take integral floats, flags 0 or 1). ``timestep``, if given,
+        replaces the params' (the env sets it from ``physics_hz``). ValueError naming an
+        unknown field and the allowed ones."""
+        if params is None:
+            params = cls()
+        if isinstance(params, Mapping):
+            fields = {f.name: f for f in dataclasses.fields(cls)}
+            if timestep is not None and "timestep" in params:
+                raise ValueError("physics cannot set timestep: the env's physics_hz sets it")
+            allowed = [name for name in fields if timestep is None or name != "timestep"]
+            unknown = sorted(set(params) - set(allowed))
+            if unknown:
+                names = ", ".join(allowed)
+                raise ValueError(f"unknown physics settings {unknown}; allowed: {names}")
+            params = cls(**{name: _coerce(fields[name].type, v) for name, v in params.items()})
+        if not isinstance(params, cls):
+            raise ValueError(f"physics must be a PhysicsParams or a dict, got {params!r}")
+        return params if timestep is None else dataclasses.replace(params, timestep=timestep)
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.timestep) and 0 < self.timestep <= 0.01):
@@ -114,6 +147,29 @@ class PhysicsParams:
             value = getattr(self, name)
             if not (np.isfinite(value) and 0 <= value <= 0.5):
                 raise ValueError(f"{name} must be in [0, 0.5] m, got {value}")
+        for name in ("free_cone_friction", "friction_anchor"):
+            if not isinstance(getattr(self, name), (bool, np.bool_)):
+                raise ValueError(f"{name} must be True or False, got {getattr(self, name)!r}")
+
+
+def physics_overrides(settings: Mapping[str, Any] | None) -> dict[str, Any] | None:
+    """``settings`` (PhysicsParams fields other than ``timestep``) checked and in JSON's own
+    form (flags as bools, whole numbers as ints), as ``gym.make(..., physics=...)`` takes
+    them; None for none. ValueError naming a bad field or value."""
+    if not settings:
+        return None
+    params = PhysicsParams.of(settings, timestep=PhysicsParams.timestep)
+    return {name: getattr(params, name) for name in settings}
+
+
+def _coerce(kind: str, value: Any) -> Any:
+    """A dict value for a PhysicsParams field of annotation ``kind``: 0/1 for flags
+    and integral floats for whole numbers become bool and int (``--physics`` passes floats)."""
+    if kind == "bool" and not isinstance(value, (bool, np.bool_)) and value in (0, 1):
+        return bool(value)
+    if kind == "int" and isinstance(value, float) and value.is_integer():
+        return int(value)
+    return value
 
 
 class Simulation:
@@ -212,6 +268,9 @@ class Simulation:
             body = self.client.loadURDF(
                 str(path), basePosition=list(position), useFixedBase=fixed_base, flags=flags
             )
+        if self.settings.friction_anchor:
+            for link in range(-1, self.client.getNumJoints(body)):
+                self.client.changeDynamics(body, link, frictionAnchor=1)
         self.bodies[name] = body
         return body
 

@@ -41,7 +41,8 @@ def execute_case(case: dict[str, Any]) -> dict[str, Any]:
     """One expert episode of the execute benchmark (runs in a worker process).
 
     A case's ``expert`` (a dict of :class:`agents.params.ExpertParams` fields), if any,
-    replaces those execution settings. Its ``dz`` (``[dz_lo, dz_hi]``, m), if any, replaces
+    replaces those execution settings, and its ``physics`` (PhysicsParams fields) the env's.
+    Its ``dz`` (``[dz_lo, dz_hi]``, m), if any, replaces
     the expert's contact band (``agents.params.EXPERT_SLIDE_PARAMS.dz``) for every plan of
     the episode: the first, the relaxed fallback and the replans (they all derive from the
     agent's parameters and keep its ``dz``). A scene the episode rejects (``ValueError``)
@@ -65,6 +66,7 @@ def execute_case(case: dict[str, Any]) -> dict[str, Any]:
             scale=case.get("scale", 1.0),
             thickness=case.get("thickness"),
             env_id=case.get("env_id", ENV_ID),
+            physics=case.get("physics"),
             **overrides,
         )
     except ValueError as err:
@@ -95,6 +97,7 @@ def bench_execute(
     backend: str = "local",
     address: str | None = None,
     expert: dict[str, float] | None = None,
+    physics: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Run ``trials`` seeded episodes per object and table (resumable: results go to ``out``).
 
@@ -105,6 +108,8 @@ def bench_execute(
     environment (``SlideGym/TopSlide-v0``: the slide alone, success = left graspable).
     ``backend``, ``address``: where episodes run (:func:`slide_gym.jobs.run_cases`).
     ``expert``: :class:`agents.params.ExpertParams` fields to override (speeds, gains).
+    ``physics``: :class:`slide_gym.sim.PhysicsParams` fields to override
+    (``{"friction_anchor": True}``).
     """
     from agents.params import expert_params
     from slide_gym import DICT_ENV_IDS
@@ -112,6 +117,7 @@ def bench_execute(
     from slide_gym.geometry.catalog import unknown_name
     from slide_gym.planning.result import check_time_budget
     from slide_gym.planning.search import PLANNERS
+    from slide_gym.sim import physics_overrides
     from slide_gym.task import PROCEDURAL
 
     time_budget = check_time_budget(time_budget)
@@ -138,6 +144,8 @@ def bench_execute(
     if expert:
         expert_params(expert)  # a bad name or value fails here, not in every worker
         extra["expert"] = dict(expert)
+    if physics:
+        extra["physics"] = physics_overrides(physics)
     n = len(tables)
     cases = [
         {

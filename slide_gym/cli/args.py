@@ -206,6 +206,25 @@ def add_randomization(p: argparse.ArgumentParser) -> None:
     )
 
 
+def add_physics(p: argparse.ArgumentParser) -> None:
+    """``--physics NAME=VALUE`` (repeatable): the env's physics settings."""
+    p.add_argument(
+        "--physics",
+        action="append",
+        metavar="NAME=VALUE",
+        help="override one of the env's physics settings (slide_gym.sim.PhysicsParams other "
+        "than timestep), e.g. friction_anchor=1: the robot's contacts keep their friction "
+        "anchors; repeatable (default: none)",
+    )
+
+
+def parse_physics(items: list[str] | None) -> dict[str, Any] | None:
+    """The value of ``--physics``: None, or checked settings in JSON's own form."""
+    from slide_gym.sim import physics_overrides
+
+    return physics_overrides(parse_assignments(items, "--physics"))
+
+
 def parse_randomization(text: str | None) -> str | dict[str, Any] | None:
     """The value of ``--randomization``: None, ``"default"`` or a checked JSON object."""
     from slide_gym.envs.randomization import DEFAULT, parse

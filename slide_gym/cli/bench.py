@@ -14,10 +14,12 @@ from slide_gym.cli.args import (
     add_choice,
     add_command,
     add_env,
+    add_physics,
     examples_epilog,
     parse_assignments,
     parse_floats,
     parse_names,
+    parse_physics,
 )
 from slide_gym.planning.search import PLANNERS
 
@@ -64,6 +66,7 @@ def _cmd_bench_execute(args: argparse.Namespace) -> int:
         backend=args.backend,
         address=args.ray_address,
         expert=parse_assignments(args.expert_param, "--expert-param"),
+        physics=parse_physics(args.physics),
         **{name: getattr(args, name) for name in options},
     )
     print(execute_markdown_table(summary) if args.markdown else json.dumps(summary, indent=2))
@@ -278,6 +281,7 @@ def _add_execute(what: Any) -> None:
         help="override one of the expert's execution settings (agents.params.ExpertParams, "
         "e.g. slide_speed=0.075); repeatable",
     )
+    add_physics(p)
     _add_jobs(p, execute.OUT, "first episode seed (trial k uses SEED + k)")
     p.add_argument("--markdown", action="store_true", help="print markdown tables (default: JSON)")
     p.set_defaults(func=_cmd_bench_execute)

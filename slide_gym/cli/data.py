@@ -16,10 +16,12 @@ from slide_gym.cli.args import (
     add_command,
     add_env,
     add_only_success,
+    add_physics,
     add_randomization,
     check_output,
     one_line_warnings,
     parse_assignments,
+    parse_physics,
     parse_randomization,
 )
 from slide_gym.planning.search import PLANNERS
@@ -79,6 +81,7 @@ def _cmd_collect(args: argparse.Namespace) -> int:
         action_noise=args.action_noise,
         split=args.split,
         randomization=parse_randomization(args.randomization),
+        physics=parse_physics(args.physics),
         planner_params=parse_assignments(args.planner_param, "--planner-param"),
         expert_params=parse_assignments(args.expert_param, "--expert-param"),
     )
@@ -225,6 +228,8 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
             env_kwargs[name] = getattr(args, name)
     if args.randomization is not None:
         env_kwargs["randomization"] = parse_randomization(args.randomization)
+    if args.physics:
+        env_kwargs["physics"] = parse_physics(args.physics)
     with one_line_warnings("evaluate"):
         result = evaluate(
             args.agent,
@@ -336,6 +341,7 @@ def add_parsers(sub: Any) -> None:
         "e.g. stop_overhang=0.035: every slide ends once the plate overhangs 3.5 cm; repeatable",
     )
     add_randomization(p)
+    add_physics(p)
     p.set_defaults(func=_cmd_collect)
 
     p = add_command(
@@ -472,5 +478,6 @@ def add_parsers(sub: Any) -> None:
         help="a train-dp policy's actions executed per chunk (default: the policy's, 8)",
     )
     add_randomization(p)
+    add_physics(p)
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=_cmd_evaluate)

@@ -20,6 +20,7 @@ from slide_gym.envs.randomization import DEFAULT, parse, to_json
 from slide_gym.envs.scene import SceneChoice
 from slide_gym.planning.api import PLANNERS
 from slide_gym.planning.result import check_time_budget
+from slide_gym.sim import physics_overrides
 from slide_gym.splits import get_split
 
 MAX_ACTION_NOISE = 1.0
@@ -99,6 +100,8 @@ class CollectConfig:
         randomization: the env's domain randomisation: None, ``"default"`` or a dict of
             key -> (low, high) or number (stored as key -> [low, high]); each episode's
             drawn values are in its reset options.
+        physics: the env's physics settings (:class:`slide_gym.sim.PhysicsParams` fields
+            other than ``timestep``), e.g. ``{"friction_anchor": True}``; None: the defaults.
         planner_params: overrides of the expert's planner parameters (names in
             :data:`NUMERIC_PLANNER_PARAMS`), e.g. ``{"u_star": 0.03}`` for slides that stop
             at a smaller overhang; None: the expert's own.
@@ -121,6 +124,7 @@ class CollectConfig:
     action_noise: float = 0.0
     split: str | None = None
     randomization: str | dict[str, list[float]] | None = None
+    physics: dict[str, Any] | None = None
     planner_params: dict[str, float] | None = None
     expert_params: dict[str, float] | None = None
 
@@ -167,6 +171,7 @@ class CollectConfig:
             object.__setattr__(self, "planner_params", check_planner_params(self.planner_params))
         if self.expert_params is not None:
             object.__setattr__(self, "expert_params", check_expert_params(self.expert_params))
+        object.__setattr__(self, "physics", physics_overrides(self.physics))
         ranges = parse(self.randomization)
         if self.randomization is not None and self.randomization != DEFAULT:
             object.__setattr__(self, "randomization", to_json(ranges))  # JSON's own form
@@ -189,17 +194,20 @@ class CollectConfig:
         kwargs |= {"obs_mode": self.obs_mode, "control_mode": self.control_mode}
         if self.randomization is not None:
             kwargs["randomization"] = self.randomization
+        if self.physics:
+            kwargs["physics"] = self.physics
         return kwargs
 
     def to_json(self) -> dict[str, Any]:
-        """The fields as JSON values; ``action_noise``, ``split`` and ``randomization`` only
+        """The fields as JSON values; ``action_noise``, ``split``, ``randomization`` and
+        ``physics`` only
         when set, so that collections made before those fields existed keep their identity
         (and resume)."""
         data = dataclasses.asdict(self)
         for name in ("action_noise", "split"):
             if not data[name]:
                 del data[name]
-        for name in ("randomization", "planner_params", "expert_params"):
+        for name in ("randomization", "physics", "planner_params", "expert_params"):
             if not data[name]:
                 del data[name]
         return data

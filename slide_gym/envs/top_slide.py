@@ -210,6 +210,10 @@ class TopSlideEnv(gym.Env):
     - ``control_hz`` (default 20), ``physics_hz`` (default 240), ``max_joint_step`` (rad per
       control step, default 0.05), ``task_params``: a :class:`TaskParams` or a dict of its
       fields (``{"table_friction": 0.2}``).
+    - ``physics``: a :class:`~slide_gym.sim.PhysicsParams` or a dict of its fields other
+      than ``timestep`` (``physics_hz`` sets it), e.g. ``{"friction_anchor": True}``: the
+      robot's contacts keep their friction anchors (small plates slip less under the
+      fingertip; off by default).
     - ``control_mode``: ``"joint_delta"`` (default) or ``"ee_delta"`` (see Action Space), with
       ``max_tip_step`` (m per control step, default 0.01) and ``max_rot_step`` (rad, 0.05).
     - ``randomization``: ``None`` (default: the fixed world), ``"default"`` (every key over
@@ -242,6 +246,7 @@ class TopSlideEnv(gym.Env):
         camera: Camera | dict[str, Any] | None = None,
         num_points: int | None = None,
         randomization: str | dict[str, Any] | None = None,
+        physics: PhysicsParams | dict[str, Any] | None = None,
     ):
         if goal not in ("slide", "grasp"):
             raise ValueError(f"goal must be 'slide' or 'grasp', got {goal!r}")
@@ -280,7 +285,7 @@ class TopSlideEnv(gym.Env):
         self._randomization_rng: np.random.Generator | None = None
 
         self.task = TopSlideTask(task_params)
-        self.sim = Simulation(render_mode, PhysicsParams(timestep=1.0 / physics_hz))
+        self.sim = Simulation(render_mode, PhysicsParams.of(physics, timestep=1.0 / physics_hz))
         self.robot = WamT42(self.sim)
         self._hand = self.robot.hand
         self._u = 0.0

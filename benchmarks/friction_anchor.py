@@ -4,9 +4,9 @@ anchors on the robot's links.
 A pressed fingertip creeps over a light plate (``benchmarks/lost_plates.py --trace``):
 Bullet re-creates friction constraints at each step's contact points, so static friction
 drifts. ``changeDynamics(..., frictionAnchor=1)`` keeps each contact's anchor point across
-steps and corrects that drift. This script measures what it changes before it becomes a
-physics setting: it runs every case of ROWS (or only the failed ones) with the anchor on
-every link of the robot (``--on robot``: the fingertip-plate and fingertip-table contacts)
+steps and corrects that drift. This script measures what it changes: it runs every case of
+ROWS (or only the failed ones) with the anchor on every link of the robot (``--on robot``:
+the physics setting ``friction_anchor``, the fingertip-plate and fingertip-table contacts)
 or on the plate and the table (``--on prisms``: every contact of the plate), writes one
 JSON line per episode to ``--out`` as it goes (a re-run skips finished cases) and prints
 the lifted count::
@@ -29,27 +29,18 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 LOST = "slid: overhang 0.000"
 
 
-def enable_anchors(on: str) -> None:
-    """Make every new :class:`~slide_gym.sim.Simulation` set ``frictionAnchor`` on the
-    robot's links (``on="robot"``) or on the prisms (``on="prisms"``: plate and table)."""
+def anchor_prisms() -> None:
+    """Make every new :class:`~slide_gym.sim.Simulation` set ``frictionAnchor`` on the plate
+    and the table (the robot's links have the physics setting ``friction_anchor``)."""
     import slide_gym.sim as sim
 
-    load_urdf, create_prism_body = sim.Simulation.load_urdf, sim.Simulation.create_prism_body
-
-    def load_anchored(self: Any, name: str, *args: Any, **kwargs: Any) -> int:
-        body = load_urdf(self, name, *args, **kwargs)
-        if on == "robot":
-            for link in range(-1, self.client.getNumJoints(body)):
-                self.client.changeDynamics(body, link, frictionAnchor=1)
-        return body
+    create_prism_body = sim.Simulation.create_prism_body
 
     def prisms_anchored(self: Any, name: str, *args: Any, **kwargs: Any) -> int:
         body = create_prism_body(self, name, *args, **kwargs)
-        if on == "prisms":
-            self.client.changeDynamics(body, -1, frictionAnchor=1)
+        self.client.changeDynamics(body, -1, frictionAnchor=1)
         return body
 
-    sim.Simulation.load_urdf = load_anchored  # type: ignore[method-assign]
     sim.Simulation.create_prism_body = prisms_anchored  # type: ignore[method-assign]
 
 
@@ -64,7 +55,9 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"no rows file {args.rows}")
     from slide_gym.bench.execute import execute_case
 
-    enable_anchors(args.on)
+    if args.on == "prisms":
+        anchor_prisms()
+    physics = {"friction_anchor": True} if args.on == "robot" else {}
     rows = [json.loads(line) for line in args.rows.read_text().splitlines() if line.strip()]
     cases = [r for r in rows if not (args.failed and r["success"])]
     key = ("object", "table", "seed", "scale", "on")
@@ -76,7 +69,8 @@ def main(argv: list[str] | None = None) -> int:
             result = {k: r[k] for k in key[:-1]} | {"on": args.on}
             if tuple(result.values()) in done:
                 continue
-            row = execute_case(r["case"])  # the row's own planner, budget, thickness, env
+            case = r["case"] | {"physics": r["case"].get("physics", {}) | physics}
+            row = execute_case(case)  # the row's own planner, budget, thickness, env
             result |= {
                 "success": row["success"],
                 "failure": row["failure"],

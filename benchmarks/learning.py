@@ -40,6 +40,9 @@ PROCEDURAL = {"object": "procedural", "table": "random"}
 """Generated plates: the plate of each reset seed, so the test seeds' plates are unseen."""
 EE = {"control_mode": "ee_delta"}
 """Fingertip-pose increments instead of joint increments (the env's ``control_mode``)."""
+ANCHOR = {"physics": {"friction_anchor": True}}
+"""PyBullet's friction anchors on the robot's links (the env's ``physics``): demonstrations
+collected, policies validated and tested in that physics."""
 EPISODES = 100
 OUT = Path("docs/results/learning")
 
@@ -51,7 +54,7 @@ class Row:
     name: str
     method: str  # "random", "expert", "bc", "dp", "dp-dart", "dp-dagger"
     env_id: str
-    scene: dict[str, str]
+    scene: dict[str, Any]
     dataset: str | None = None  # the Minari id
     collect: dict[str, Any] = field(default_factory=dict)  # CollectConfig fields, episodes
     train: list[str] = field(default_factory=list)  # extra train-dp / dagger arguments
@@ -107,16 +110,18 @@ def _ee_square_seeds(
     train: list[str],
     dataset: str = "slide-gym/square-slide-ee-v1",
     collect: dict[str, Any] | None = None,
+    physics: dict[str, Any] | None = None,
 ) -> list[Row]:
     """Diffusion-policy rows on the square slide demonstrations in fingertip steps
     (``dataset``, collected with ``collect``), trained with ``train`` at training seeds 0
-    (row ``name``), 1 and 2 (``name-seed1``, ``-seed2``; a :data:`SEED_GROUPS` entry)."""
+    (row ``name``), 1 and 2 (``name-seed1``, ``-seed2``; a :data:`SEED_GROUPS` entry);
+    ``physics``: the scene's physics settings (e.g. :data:`ANCHOR`), if any."""
     return [
         Row(
             name + (f"-seed{s}" if s else ""),
             "dp",
             SLIDE,
-            {**SQUARE, **EE},
+            {**SQUARE, **EE, **(physics or {})},
             dataset,
             collect or SQUARE_SLIDE,
             train + (["--seed", str(s)] if s else []),
@@ -450,6 +455,14 @@ ROWS = {
             "slide-gym/square-slide-ee-stop-v1",
             {**SQUARE_SLIDE, "expert_params": {"stop_overhang": 0.035}},
         ),
+        Row("expert-ee-square-slide-anchor", "expert", SLIDE, {**SQUARE, **EE, **ANCHOR}),
+        *_ee_square_seeds(
+            "dp-ee-square-slide-stop-anchor-b256-10k",
+            [*CPU_B256, "--iterations", "10000"],
+            "slide-gym/square-slide-ee-stop-anchor-v1",
+            {**SQUARE_SLIDE, "expert_params": {"stop_overhang": 0.035}},
+            ANCHOR,
+        ),
         *(
             Row(
                 "dp-ee-catalog-slide-stop-b256-20k" + suffix,
@@ -606,11 +619,14 @@ def _trained(row: Row) -> Row:
     return ROWS[row.base] if row.method == "dp" and row.base else row
 
 
-def _scene_options(scene: dict[str, str]) -> str:
-    """The ``--object``, ``--table`` (and ``--control-mode``) options of a scene."""
+def _scene_options(scene: dict[str, Any]) -> str:
+    """The ``--object``, ``--table`` (and ``--control-mode``, ``--physics``) options of a
+    scene."""
     options = f"--object {scene['object']} --table {scene['table']}"
     if "control_mode" in scene:
         options += f" --control-mode {scene['control_mode']}"
+    for name, value in scene.get("physics", {}).items():
+        options += f" --physics {name}={int(value) if isinstance(value, bool) else value}"
     return options
 
 

@@ -302,3 +302,33 @@ def test_collect_expert_params_are_checked_before_any_work(
 ) -> None:
     monkeypatch.setattr("slide_gym.jobs.run_cases", _refuse)
     assert needle in _one_line([*COLLECT, "--expert-param", option], capsys)
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["bench", "execute", "--trials", "1"],
+        [*COLLECT],
+        ["evaluate", "random", "--env", SLIDE, "--episodes", "1"],
+    ],
+)
+@pytest.mark.parametrize(
+    ("option", "needle"),
+    [
+        ("anchor=1", "unknown physics settings ['anchor']; allowed: solver_iterations, "),
+        ("friction_anchor=2", "friction_anchor must be True or False, got 2.0"),
+        ("timestep=0.001", "physics cannot set timestep"),
+        ("friction_anchor", "--physics takes NAME=NUMBER"),
+    ],
+)
+def test_physics_settings_are_checked_before_any_work(
+    argv: list[str],
+    option: str,
+    needle: str,
+    monkeypatch: pytest.MonkeyPatch,
+    minari_root: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    monkeypatch.setattr("slide_gym.jobs.run_cases", _refuse)
+    monkeypatch.setattr("agents.evaluate.evaluate", _refuse)
+    assert needle in _one_line([*argv, "--physics", option], capsys)

@@ -9,6 +9,7 @@ import subprocess
 import sys
 import time
 
+import gymnasium as gym
 import minari
 import numpy as np
 import pyarrow.parquet as pq
@@ -269,3 +270,20 @@ def test_expert_param_overrides_are_checked_and_kept_in_the_identity():
     ]:
         with pytest.raises(ValueError, match=needle):
             CollectConfig(env_id=config.env_id, expert_params=bad)
+
+
+def test_physics_settings_reach_the_env_and_are_kept_in_the_identity():
+    from slide_gym.datasets.config import CollectConfig
+
+    config = CollectConfig(env_id="SlideGym/TopSlide-v0", physics={"friction_anchor": 1.0})
+    assert config.physics == {"friction_anchor": True}
+    assert config.env_kwargs()["physics"] == {"friction_anchor": True}
+    env = gym.make(config.env_id, **config.env_kwargs())
+    assert env.unwrapped.sim.settings.friction_anchor
+    env.close()
+    again = CollectConfig.from_json(config.to_json())
+    assert again == config and again.differences(CollectConfig(env_id=config.env_id))
+    plain = CollectConfig(env_id=config.env_id)
+    assert "physics" not in plain.to_json() and "physics" not in plain.env_kwargs()  # old ids
+    with pytest.raises(ValueError, match="allowed: solver_iterations"):
+        CollectConfig(env_id=config.env_id, physics={"anchor": 1})

@@ -7,17 +7,17 @@ from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
 
+import numpy as np
 import pytest
 
 import slide_gym.sim as sim
 
 
-def test_anchors_are_set_on_the_robots_links_only(
+def test_prisms_are_anchored_and_the_robot_is_not(
     monkeypatch: pytest.MonkeyPatch, load_benchmark: Callable[[str], ModuleType]
 ) -> None:
-    for name in ("load_urdf", "create_prism_body"):  # restored after the test
-        monkeypatch.setattr(sim.Simulation, name, getattr(sim.Simulation, name))
-    load_benchmark("friction_anchor").enable_anchors("robot")
+    monkeypatch.setattr(sim.Simulation, "create_prism_body", sim.Simulation.create_prism_body)
+    load_benchmark("friction_anchor").anchor_prisms()
     world = sim.Simulation()
     calls: list[tuple[int, int, dict]] = []
     change = world.client.changeDynamics
@@ -26,9 +26,12 @@ def test_anchors_are_set_on_the_robots_links_only(
     )
     from slide_gym.assets import robot_urdf
 
-    body = world.load_urdf("robot", robot_urdf())
-    anchored = {link for b, link, kw in calls if b == body and kw.get("frictionAnchor") == 1}
-    assert anchored == set(range(-1, world.client.getNumJoints(body)))
+    plate = world.create_prism_body(
+        "object", [np.array([[0, 0], [0.1, 0], [0, 0.1]])], 0, 0.004, 0.1
+    )
+    robot = world.load_urdf("robot", robot_urdf())
+    anchored = {b for b, _, kw in calls if kw.get("frictionAnchor") == 1}
+    assert anchored == {plate} and robot not in anchored
     world.close()
 
 
@@ -38,8 +41,11 @@ def test_reruns_the_rows_cases_and_resumes(
     capsys: pytest.CaptureFixture,
     load_benchmark: Callable[[str], ModuleType],
 ) -> None:
-    for name in ("load_urdf", "create_prism_body"):
-        monkeypatch.setattr(sim.Simulation, name, getattr(sim.Simulation, name))
+    import slide_gym.bench.execute as execute
+
+    cases: list[dict] = []
+    run = execute.execute_case
+    monkeypatch.setattr(execute, "execute_case", lambda case: cases.append(case) or run(case))
     module = load_benchmark("friction_anchor")
     rows = tmp_path / "rows.jsonl"
     scene = {"object": "square", "table": "square", "seed": 0, "scale": 1.0}
@@ -50,8 +56,9 @@ def test_reruns_the_rows_cases_and_resumes(
     (result,) = [json.loads(line) for line in out.read_text().splitlines()]
     assert result["on"] == "robot" and result["was_success"] is True
     assert isinstance(result["success"], bool)
+    assert cases == [case | {"physics": {"friction_anchor": True}}]
     assert module.main([str(rows), "--on", "robot", "--out", str(out)]) == 0  # resumed
-    assert len(out.read_text().splitlines()) == 1
+    assert len(out.read_text().splitlines()) == 1 and len(cases) == 1
     summary = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert summary["episodes"] == 1
 

@@ -12,7 +12,7 @@ import pytest
 
 from slide_gym.bench.env import arm_speeds
 from slide_gym.envs.top_slide import TopSlideEnv
-from slide_gym.sim import PhysicsParams, Simulation
+from slide_gym.sim import PhysicsParams, Simulation, pb, physics_overrides
 
 FAR = (0.75, 0.2, 0.0)
 """A square plate's start pose on the square table, more than 10 cm from the robot."""
@@ -44,11 +44,54 @@ def _engine(sim: Simulation) -> tuple[float, int]:
         ("free_step_factor", True),
         ("near_distance", -0.1),
         ("prism_margin", float("nan")),
+        ("friction_anchor", 1),
     ],
 )
 def test_bad_physics_settings_are_rejected(field: str, value: object) -> None:
     with pytest.raises(ValueError, match=field):
         PhysicsParams(**{field: value})
+
+
+def test_physics_from_a_dict_takes_json_and_cli_values() -> None:
+    """``--physics`` passes floats and ``gym.make`` JSON: 0/1 flags and whole floats count."""
+    assert physics_overrides({"friction_anchor": 1.0, "solver_iterations": 50.0}) == {
+        "friction_anchor": True,
+        "solver_iterations": 50,
+    }
+    assert physics_overrides(None) is None
+    with pytest.raises(ValueError, match="unknown physics settings \\['anchor'\\]; allowed: "):
+        physics_overrides({"anchor": 1})
+    with pytest.raises(ValueError, match="physics_hz sets it"):
+        physics_overrides({"timestep": 0.001})
+    with pytest.raises(ValueError, match="friction_anchor must be True or False, got 2"):
+        physics_overrides({"friction_anchor": 2})
+    with pytest.raises(ValueError, match="unknown physics settings"):
+        TopSlideEnv(physics={"anchor": True})
+
+
+def test_friction_anchor_is_set_on_every_robot_link_only_when_asked(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    calls: list[tuple[int, int]] = []
+    change = pb.changeDynamics
+
+    def recording(body: int, link: int, **kwargs: object) -> None:
+        if "frictionAnchor" in kwargs:
+            calls.append((body, link))
+        change(body, link, **kwargs)
+
+    monkeypatch.setattr(pb, "changeDynamics", recording)
+    env = TopSlideEnv()
+    env.reset(seed=0)
+    env.close()
+    assert calls == []
+    env = TopSlideEnv(physics={"friction_anchor": True})
+    env.reset(seed=0)
+    robot = env.sim.bodies["robot"]
+    links = env.sim.client.getNumJoints(robot)
+    assert env.sim.settings.friction_anchor
+    assert calls == [(robot, link) for link in range(-1, links)]
+    env.close()
 
 
 def test_the_free_robot_takes_longer_cheaper_steps_and_the_near_one_full_ones() -> None:

@@ -829,6 +829,8 @@ def report(out: Path) -> Path:
             train += " (GPU)"
         lo, hi = r["ci95"]
         mode = ", fingertip steps" if r["scene"].get("control_mode") == "ee_delta" else ""
+        if r["scene"].get("physics", {}).get("friction_anchor"):
+            mode += ", friction anchors"
         lines.append(
             f"| {name} | {r['env_id'].split('/')[1]} | {r['scene']['object']} on "
             f"{r['scene']['table']}{mode} | {n_demo} | {train} | "

@@ -310,6 +310,7 @@ def test_collect_expert_params_are_checked_before_any_work(
         ["bench", "execute", "--trials", "1"],
         [*COLLECT],
         ["evaluate", "random", "--env", SLIDE, "--episodes", "1"],
+        ["run", "--object", "square"],
     ],
 )
 @pytest.mark.parametrize(
@@ -331,4 +332,5 @@ def test_physics_settings_are_checked_before_any_work(
 ) -> None:
     monkeypatch.setattr("slide_gym.jobs.run_cases", _refuse)
     monkeypatch.setattr("agents.evaluate.evaluate", _refuse)
+    monkeypatch.setattr("agents.episode.run_episode", _refuse)
     assert needle in _one_line([*argv, "--physics", option], capsys)

@@ -2,24 +2,15 @@
 
 from __future__ import annotations
 
-import importlib.util
-import sys
+from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
 
 
-def learning() -> ModuleType:
-    path = Path(__file__).resolve().parents[1] / "benchmarks" / "learning.py"
-    spec = importlib.util.spec_from_file_location("learning_rows", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # its dataclasses look their module up
-    spec.loader.exec_module(module)
-    return module
-
-
-def test_a_row_that_tests_another_rows_policy_cites_that_rows_data_and_training() -> None:
-    rows = learning()
+def test_a_row_that_tests_another_rows_policy_cites_that_rows_data_and_training(
+    load_benchmark: Callable[[str], ModuleType],
+) -> None:
+    rows = load_benchmark("learning")
     models = Path("models")
     procedural = rows.command(rows.ROWS["dp-catalog-grasp-procedural"], models)
     catalog = rows.command(rows.ROWS["dp-catalog-grasp"], models)
@@ -30,11 +21,28 @@ def test_a_row_that_tests_another_rows_policy_cites_that_rows_data_and_training(
     assert "--object procedural --table random" in evaluate
 
 
-def test_every_row_names_a_known_method_and_env() -> None:
-    rows = learning()
+def test_every_row_names_a_known_method_and_env(
+    load_benchmark: Callable[[str], ModuleType],
+) -> None:
+    rows = load_benchmark("learning")
     methods = {"random", "expert", "bc", "dp", "dp-dart", "dp-dagger"}
     for name, row in rows.ROWS.items():
         assert row.name == name and row.method in methods
         assert row.env_id in (rows.SLIDE, rows.GRASP)
         if row.base is not None:
             assert row.base in rows.ROWS, f"{name}: unknown base {row.base}"
+
+
+def test_rows_in_anchored_physics_collect_train_and_test_in_it(
+    load_benchmark: Callable[[str], ModuleType],
+) -> None:
+    from slide_gym.datasets.config import CollectConfig
+
+    rows = load_benchmark("learning")
+    row = rows.ROWS["dp-ee-square-slide-stop-anchor-b256-10k"]
+    collect, _, evaluate = rows.command(row, Path("models")).split("; ")
+    assert "--physics friction_anchor=1" in collect and "--physics friction_anchor=1" in evaluate
+    config = CollectConfig(env_id=row.env_id, **row.scene)  # as run() collects
+    assert config.env_kwargs()["physics"] == {"friction_anchor": True}
+    plain = rows.ROWS["dp-ee-square-slide-stop-b256-10k"]
+    assert "--physics" not in rows.command(plain, Path("models"))

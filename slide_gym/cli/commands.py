@@ -14,9 +14,11 @@ from slide_gym.cli.args import (
     add_choice,
     add_command,
     add_env,
+    add_physics,
     check_name,
     check_output,
     parse_floats,
+    parse_physics,
 )
 from slide_gym.cli.text import demo_text, plan_text, run_text
 from slide_gym.geometry import OBJECT_NAMES, TABLE_NAMES
@@ -164,6 +166,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         thickness=args.thickness,
         env_id=args.env,
         object_pose=pose,
+        physics=parse_physics(args.physics),
     )
     if args.json:
         print(json.dumps(r.to_json_dict()))
@@ -318,5 +321,6 @@ def add_parsers(sub: Any) -> None:
     _planning(p, "per query")
     p.add_argument("--video", type=Path, metavar="FILE", help="also write an MP4 or GIF here")
     add_env(p, "run", f"environment, one of {', '.join(DICT_ENV_IDS)}", EXPERT_ENV_ID)
+    add_physics(p)
     _json_flag(p, "one JSON object, full precision")
     p.set_defaults(func=_cmd_run)

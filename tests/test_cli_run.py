@@ -104,6 +104,7 @@ def test_run_json_prints_one_object_with_the_contract_keys(
             "thickness": None,
             "env_id": "SlideGym/TopSlideGrasp-v0",
             "object_pose": None,
+            "physics": None,
         }
     ]
 
@@ -115,7 +116,7 @@ def test_run_passes_options_and_prints_a_short_summary(
     argv = ["run", "--object", "E", "--table", "round", "--scale", "1.2", "--seed", "3"]
     argv += ["--planner", "cbirrt2", "--time-budget", "4", "--video", str(video)]
     argv += ["--thickness", "0.0008", "--env", "SlideGym/TopSlide-v0"]
-    argv += ["--object-pose", "0.6,0.1,0.3"]
+    argv += ["--object-pose", "0.6,0.1,0.3", "--physics", "friction_anchor=1"]
     assert main(argv) == 0
     assert fake.calls[0] == {
         "object": "E",
@@ -128,6 +129,7 @@ def test_run_passes_options_and_prints_a_short_summary(
         "thickness": 0.0008,
         "env_id": "SlideGym/TopSlide-v0",
         "object_pose": (0.6, 0.1, 0.3),
+        "physics": {"friction_anchor": True},
     }
     lines = capsys.readouterr().out.splitlines()
     assert 2 <= len(lines) <= 6

@@ -108,14 +108,19 @@ class RandomAgent:
 
 
 def _open_agent(
-    agent: Any, action_horizon: int | None = None
+    agent: Any, action_horizon: int | None = None, noise_scale: float | None = None
 ) -> tuple[str | None, Any, dict[str, Any]]:
     """``(planner name or None, policy with predict or None, its card)``: the card holds the
     ``env_id`` and ``env_kwargs`` it was trained with (``{}`` for planners and ``random``)."""
-    if action_horizon is not None and not (isinstance(agent, (str, Path)) and Path(agent).is_dir()):
+    sampling = {
+        name: value
+        for name, value in (("action_horizon", action_horizon), ("noise_scale", noise_scale))
+        if value is not None
+    }
+    if sampling and not (isinstance(agent, (str, Path)) and Path(agent).is_dir()):
         raise ValueError(
-            "action_horizon applies to a diffusion policy folder (from train-dp) only, "
-            f"got the agent {str(agent)!r}"
+            f"{' and '.join(sampling)} applies to a diffusion policy folder (from train-dp) "
+            f"only, got the agent {str(agent)!r}"
         )
     if hasattr(agent, "predict"):
         return None, agent, dict(getattr(agent, "card", {}))
@@ -131,7 +136,7 @@ def _open_agent(
                 f"{str(agent)!r} is a folder without a saved policy (policy.pt); "
                 "train one with `slide-gym train-dp DATASET_ID --out DIR`"
             )
-        policy = DiffusionPolicy.load(agent, action_horizon=action_horizon)
+        policy = DiffusionPolicy.load(agent, **sampling)
         return None, policy, json.loads((Path(agent) / CARD_FILE).read_text())
     model_path = _model_file(agent)
     if model_path is None:
@@ -177,6 +182,7 @@ def evaluate(
     progress: bool = False,
     max_steps: int | None = None,
     action_horizon: int | None = None,
+    noise_scale: float | None = None,
 ) -> dict[str, Any]:
     """Run ``agent`` for ``episodes`` episodes of ``gym.make(env_id, **env_kwargs)`` with reset
     seeds ``seed``, ``seed + 1``, ... and report how often it succeeded.
@@ -201,6 +207,8 @@ def evaluate(
             (default: the env's time limit only).
         action_horizon: a diffusion-policy folder's actions executed per chunk (default: the
             policy's own; :class:`~agents.learned.policy.DiffusionPolicy`).
+        noise_scale: a diffusion-policy folder's initial sampling noise, scaled (default 1;
+            :class:`~agents.learned.policy.DiffusionPolicy`).
 
     Returns:
         ``{"agent", "env_id", "env_kwargs", "episodes", "successes", "success_rate", "ci95",
@@ -216,7 +224,7 @@ def evaluate(
         raise ValueError(f"max_steps must be a positive integer or None, got {max_steps!r}")
     if env_id not in DICT_ENV_IDS:
         raise ValueError(f"env_id must be one of {', '.join(DICT_ENV_IDS)}, got {env_id!r}")
-    planner, model, card = _open_agent(agent, action_horizon)
+    planner, model, card = _open_agent(agent, action_horizon, noise_scale)
     if planner:
         check_time_budget(time_budget)
     trained_in = card.get("env_id")
@@ -297,6 +305,7 @@ def evaluate(
         "env_id": env_id,
         "env_kwargs": kwargs,
         **({"action_horizon": action_horizon} if action_horizon is not None else {}),
+        **({"noise_scale": noise_scale} if noise_scale is not None else {}),
         "episodes": len(results),
         "successes": k,
         "success_rate": k / len(results),

@@ -273,6 +273,22 @@ def test_a_shorter_action_horizon_samples_more_often(trained, monkeypatch):
             DiffusionPolicy.load(trained, action_horizon=bad)
 
 
+def test_zero_noise_scale_samples_the_same_chunk_whatever_the_seed(trained):
+    env = gym.make(ENV_ID)
+    obs, _ = env.reset(seed=0)
+    env.close()
+
+    def first_action(seed: int, noise_scale: float) -> np.ndarray:
+        policy = DiffusionPolicy.load(trained, seed=seed, noise_scale=noise_scale)
+        return policy.predict(obs, episode_start=np.array([True]))[0]
+
+    np.testing.assert_array_equal(first_action(0, 0.0), first_action(1, 0.0))
+    assert not np.array_equal(first_action(0, 1.0), first_action(1, 1.0))
+    for bad in (-0.1, 1.5, float("nan"), True):
+        with pytest.raises(ValueError, match="noise_scale"):
+            DiffusionPolicy.load(trained, noise_scale=bad)
+
+
 def test_runs_under_sb3_evaluate_policy_on_a_vectorised_env(trained):
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.evaluation import evaluate_policy
@@ -295,6 +311,11 @@ def test_evaluate_command_runs_a_policy_folder(trained, capsys):
     assert "action_horizon" not in result
     assert main([*args, "--action-horizon", "4"]) == 0
     assert json.loads(capsys.readouterr().out)["action_horizon"] == 4
+    assert main([*args, "--noise-scale", "0.5"]) == 0
+    assert json.loads(capsys.readouterr().out)["noise_scale"] == 0.5
+    assert main([*args, "--noise-scale", "2"]) == 2
+    err = capsys.readouterr().err
+    assert "noise_scale" in err and len(err.strip().splitlines()) == 1
 
 
 def test_train_dp_init_starts_from_a_policys_weights(dart, trained, tmp_path, capsys):
@@ -369,6 +390,7 @@ def test_a_dagger_round_of_a_grasp_skill_keeps_its_slide_skill(
         (["train-dp", "nobody/nothing-v0", "--out", "dp"], "no local dataset"),
         (["evaluate", "{empty}", "--episodes", "1"], "without a saved policy"),
         (["evaluate", "regions", "--episodes", "1", "--action-horizon", "4"], "action_horizon"),
+        (["evaluate", "regions", "--episodes", "1", "--noise-scale", "0"], "noise_scale"),
         (
             ["collect", "--episodes", "1", "--action-noise", "-1", "--dataset-id", "t/x-v0"],
             "action_noise",

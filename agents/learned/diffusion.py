@@ -208,16 +208,23 @@ class DiffusionModel(nn.Module):
 
     @torch.no_grad()
     def sample(
-        self, obs: torch.Tensor, generator: torch.Generator | None = None, steps: int | None = None
+        self,
+        obs: torch.Tensor,
+        generator: torch.Generator | None = None,
+        steps: int | None = None,
+        noise_scale: float = 1.0,
     ) -> torch.Tensor:
         """(B, pred_horizon, action_dim) raw actions for ``obs`` (B, obs_horizon, input_dim),
         by deterministic DDIM (eta 0) over ``steps`` (default ``config.inference_steps``)
         diffusion steps (:func:`ddim_times`); the clean estimate is clipped to the dataset's
-        range each step."""
+        range each step. ``noise_scale`` scales the initial noise (1: a sample of the learned
+        distribution; below 1 draws nearer its high-density actions, 0 the same chunk for the
+        same observations)."""
         steps = self.config.inference_steps if steps is None else int(steps)
         cond = self.encoder(self.normalize_obs(obs).flatten(1))
         n = len(cond)
         x = torch.randn((n, self.config.pred_horizon, self.action_dim), generator=generator)
+        x = x * noise_scale
         times = ddim_times(self.config.train_steps, steps)
         for i, t in enumerate(times):
             ab = self.alpha_bar[t]

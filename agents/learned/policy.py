@@ -89,6 +89,9 @@ class DiffusionPolicy:
         action_horizon: actions of each chunk executed before sampling the next (default:
             the model's; at most ``pred_horizon - obs_horizon + 1``). Fewer react sooner to
             what the plate does, at one sample per that many steps.
+        noise_scale: the initial noise of each chunk's DDIM sampling, scaled (default 1: a
+            sample of the learned action distribution; 0 starts every chunk from zero noise,
+            a deterministic function of the observations). A number in [0, 1].
         card: the policy card (``env_id``, ``env_kwargs``, ...), if loaded from a folder.
         first: a sliding skill that acts until the observation shows the slide done
             (:func:`~agents.learned.features.slide_done`); ``model`` acts from then on.
@@ -101,6 +104,7 @@ class DiffusionPolicy:
         seed: int = 0,
         inference_steps: int | None = None,
         action_horizon: int | None = None,
+        noise_scale: float = 1.0,
         card: dict[str, Any] | None = None,
         first: DiffusionModel | None = None,
     ) -> None:
@@ -117,6 +121,7 @@ class DiffusionPolicy:
         self.horizons = [self._action_horizon(m.config, action_horizon) for m in self.skills]
         self.action_horizon = self.horizons[-1]
         self.inference_steps = inference_steps
+        self.noise_scale = self._noise_scale(noise_scale)
         self.card = dict(card or {})
         self.seed = int(seed)
         self.generator = torch.Generator().manual_seed(self.seed)
@@ -139,6 +144,16 @@ class DiffusionPolicy:
                 f"obs_horizon + 1), got {action_horizon!r}"
             )
         return action_horizon
+
+    @staticmethod
+    def _noise_scale(noise_scale: float) -> float:
+        if (
+            isinstance(noise_scale, bool)
+            or not isinstance(noise_scale, (int, float))
+            or not 0.0 <= noise_scale <= 1.0
+        ):
+            raise ValueError(f"noise_scale must be a number in [0, 1], got {noise_scale!r}")
+        return float(noise_scale)
 
     @classmethod
     def load(cls, folder: str | Path, **kwargs: Any) -> DiffusionPolicy:
@@ -202,7 +217,9 @@ class DiffusionPolicy:
             need = [i for i in slots if not self._queues[i]]
             if need:
                 window = torch.from_numpy(np.stack([np.stack(self._history[i]) for i in need]))
-                chunks = skill.sample(window, self.generator, self.inference_steps).numpy()
+                chunks = skill.sample(
+                    window, self.generator, self.inference_steps, self.noise_scale
+                ).numpy()
                 first, count = config.obs_horizon - 1, self.horizons[k]
                 for i, chunk in zip(need, chunks, strict=True):
                     actions = chunk_to_actions(chunk, first, count, config.actions)

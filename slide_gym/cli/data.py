@@ -240,6 +240,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
             time_budget=args.time_budget,
             progress=not args.json,
             action_horizon=args.action_horizon,
+            noise_scale=args.noise_scale,
         )
     if args.split is not None:
         result["split"] = args.split
@@ -476,6 +477,13 @@ def add_parsers(sub: Any) -> None:
         type=int,
         metavar="K",
         help="a train-dp policy's actions executed per chunk (default: the policy's, 8)",
+    )
+    p.add_argument(
+        "--noise-scale",
+        type=float,
+        metavar="S",
+        help="a train-dp policy's initial sampling noise, scaled: 1 samples its action "
+        "distribution (default), 0 starts each chunk from zero noise; in [0, 1]",
     )
     add_randomization(p)
     add_physics(p)

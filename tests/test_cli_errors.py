@@ -318,6 +318,7 @@ def test_collect_expert_params_are_checked_before_any_work(
     [
         ("anchor=1", "unknown physics settings ['anchor']; allowed: solver_iterations, "),
         ("friction_anchor=2", "friction_anchor must be True or False, got 2.0"),
+        ("solver_residual_threshold=0", "solver_residual_threshold must be in (0, 0.01], got 0"),
         ("timestep=0.001", "physics cannot set timestep"),
         ("friction_anchor", "--physics takes NAME=NUMBER"),
     ],

@@ -45,6 +45,9 @@ def _engine(sim: Simulation) -> tuple[float, int]:
         ("near_distance", -0.1),
         ("prism_margin", float("nan")),
         ("friction_anchor", 1),
+        ("solver_residual_threshold", 0.0),
+        ("solver_residual_threshold", float("nan")),
+        ("solver_residual_threshold", 0.5),
     ],
 )
 def test_bad_physics_settings_are_rejected(field: str, value: object) -> None:
@@ -92,6 +95,34 @@ def test_friction_anchor_is_set_on_every_robot_link_only_when_asked(
     assert env.sim.settings.friction_anchor
     assert calls == [(robot, link) for link in range(-1, links)]
     env.close()
+
+
+def test_the_solver_residual_threshold_reaches_the_engine(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """PyBullet does not report the threshold back, so the calls that set it are recorded;
+    a looser threshold then gives another pressed world than the default's."""
+    thresholds: list[float] = []
+    client_set = pb.setPhysicsEngineParameter
+
+    def recording(**kwargs: object) -> None:
+        if "solverResidualThreshold" in kwargs:
+            thresholds.append(float(kwargs["solverResidualThreshold"]))  # type: ignore[arg-type]
+        client_set(**kwargs)
+
+    monkeypatch.setattr(pb, "setPhysicsEngineParameter", recording)
+    states = []
+    for physics in (None, {"solver_residual_threshold": 1e-2}):
+        env = TopSlideEnv(object="square", table="square", physics=physics)
+        try:
+            env.reset(seed=0, options={"object_pose": UNDER})
+            for _ in range(30):
+                obs, *_ = env.step(LOWER)
+            states.append(np.concatenate([obs["arm_qpos"], obs["finger_qpos"]]))
+        finally:
+            env.close()
+    assert thresholds and set(thresholds) == {1e-7, 1e-2}
+    assert not np.array_equal(states[0], states[1])
 
 
 def test_the_free_robot_takes_longer_cheaper_steps_and_the_near_one_full_ones() -> None:

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from agents.learned.features import policy_input, slide_done
+from agents.learned.frames import EE_ACTION_SIZE, targets_in_frame, task_frames
 from slide_gym.datasets.recording import LABEL_KEY
 
 MIN_STD = 1e-2
@@ -72,6 +73,7 @@ def load_demonstrations(
     tip_axes: bool = False,
     only_success: bool = True,
     after_slide: bool = False,
+    targets: bool = False,
 ) -> Demonstrations:
     """The episodes of Minari ``dataset`` as :class:`Demonstrations`: those whose ``success``
     flag is set (all, if ``only_success`` is False), and every DAgger rollout (whatever the
@@ -79,7 +81,9 @@ def load_demonstrations(
     step where :func:`~agents.learned.features.slide_done` holds (an episode where it never
     does is skipped), the part a skill that takes over after a slide learns from.
     ``with_features``, ``tip_axes``: the inputs, as :func:`~agents.learned.features.policy_input`.
-    ValueError if none is left."""
+    ``targets``: the arm labels are the fingertip poses measured after each step, in the task
+    frame of the episode's first kept observation (:mod:`agents.learned.frames`; ``ee_delta``
+    demonstrations only, and not relabelled ones). ValueError if none is left."""
     episode_ids = list(range(dataset.total_episodes))
     metas = list(dataset.storage.get_episode_metadata(episode_ids))
     inputs, labels, lengths, seeds = [], [], [], []
@@ -97,13 +101,17 @@ def load_demonstrations(
             raise ValueError("the dataset's observations must be a Dict (a slide-gym env's)")
         obs = {k: np.asarray(v)[:n] for k, v in episode.observations.items()}
         episode_targets = episode_labels(episode)
+        first = 0
         if after_slide:
             done = np.flatnonzero(slide_done(obs))
             if len(done) == 0:
                 skipped += 1
                 continue
-            obs = {k: v[done[0] :] for k, v in obs.items()}
-            episode_targets, n = episode_targets[done[0] :], n - int(done[0])
+            first = int(done[0])
+            obs = {k: v[first:] for k, v in obs.items()}
+            episode_targets, n = episode_targets[first:], n - first
+        if targets:
+            episode_targets = _pose_targets(episode, obs, episode_targets, first)
         inputs.append(policy_input(obs, with_features, tip_axes))
         labels.append(episode_targets)
         lengths.append(n)
@@ -124,11 +132,34 @@ def load_demonstrations(
     )
 
 
-ACTION_REPRESENTATIONS = ("offsets", "deltas")
+def _pose_targets(
+    episode: Any, obs: dict[str, np.ndarray], labels: np.ndarray, first: int
+) -> np.ndarray:
+    """(n, TARGET_SIZE + 1) labels of ``"targets"``: the fingertip pose after each kept step
+    in the task frame of the first kept observation, then the hand command."""
+    if labels.shape[1] != EE_ACTION_SIZE:
+        raise ValueError(
+            f"fingertip targets need ee_delta demonstrations ({EE_ACTION_SIZE} action "
+            f"entries), got {labels.shape[1]}: collect with --control-mode ee_delta"
+        )
+    infos = episode.infos if isinstance(episode.infos, dict) else {}
+    if LABEL_KEY in infos:
+        raise ValueError(
+            "fingertip targets are the demonstrated motion itself, so they cannot learn from "
+            "relabelled (DART or DAgger) episodes; use --actions deltas"
+        )
+    after = np.asarray(episode.observations["fingertip_pose"])[first + 1 : first + 1 + len(labels)]
+    poses = targets_in_frame(after, task_frames({k: v[:1] for k, v in obs.items()})[0])
+    return np.column_stack([poses, labels[:, -1:]]).astype(np.float32)
+
+
+ACTION_REPRESENTATIONS = ("offsets", "deltas", "targets")
 """How a chunk holds the arm part of its actions: ``"offsets"`` (each step's target relative
 to the target before the window's current step, the running sum of the increments: a short
 trajectory, as position control is in Chi et al.) or ``"deltas"`` (the per-step increments
-the env takes). The hand command is absolute in both."""
+the env takes) or ``"targets"`` (fingertip poses in a task frame, :mod:`agents.learned.frames`;
+the policy turns each into an ``ee_delta`` step when it acts). The hand command is absolute
+in all three."""
 
 
 def chunk_to_actions(chunk: np.ndarray, first: int, count: int, representation: str) -> np.ndarray:
@@ -136,7 +167,7 @@ def chunk_to_actions(chunk: np.ndarray, first: int, count: int, representation: 
     current step's index in the chunk). With offsets, a step's arm increment is its offset
     minus the previous step's; the offset before the current step is 0 by construction."""
     out = chunk[first : first + count].copy()
-    if representation == "offsets":
+    if representation == "offsets":  # "targets" stay targets: the policy steps toward them
         arm = out[:, :-1].copy()
         out[:, :-1] = arm - np.concatenate([np.zeros_like(arm[:1]), arm[:-1]])
     return out
@@ -176,6 +207,8 @@ class ChunkSampler:
             before[:, arm:] = labels[0, arm:]
             after = np.zeros((pred_horizon, labels.shape[1]), np.float32)
             after[:, arm:] = labels[-1, arm:]
+            if representation == "targets":  # before the start and after the end: hold still
+                before[:], after[:] = labels[0], labels[-1]
             steps = np.concatenate([before, labels, after])  # step s at row s + obs_horizon - 1
             t = np.arange(n)
             rows = t[:, None] + np.arange(pred_horizon)  # window t's steps, as rows of `steps`

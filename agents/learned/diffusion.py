@@ -40,7 +40,7 @@ class DiffusionConfig:
             the U-Net (an MLP; 0: the standardised history itself, as in Chi et al.). A
             small embedding makes the FiLM layers, most of the compute, several times
             cheaper.
-        actions: ``"offsets"`` or ``"deltas"``, how a chunk holds the arm's motion
+        actions: ``"offsets"``, ``"deltas"`` or ``"targets"``, how a chunk holds the arm's motion
             (:data:`agents.learned.data.ACTION_REPRESENTATIONS`).
         scaling: ``"standard"``: each chunk entry (position in the chunk, action entry)
             standardised with the dataset's mean and standard deviation, so the signal has
@@ -95,8 +95,10 @@ class DiffusionConfig:
             raise ValueError(f"scaling must be 'standard' or 'minmax', got {self.scaling!r}")
         if self.hand not in ("continuous", "binary"):
             raise ValueError(f"hand must be 'continuous' or 'binary', got {self.hand!r}")
-        if self.actions not in ("offsets", "deltas"):
-            raise ValueError(f"actions must be 'offsets' or 'deltas', got {self.actions!r}")
+        if self.actions not in ("offsets", "deltas", "targets"):
+            raise ValueError(
+                f"actions must be 'offsets', 'deltas' or 'targets', got {self.actions!r}"
+            )
         if not 1 <= self.inference_steps <= self.train_steps:
             raise ValueError(
                 f"inference_steps must be in 1..train_steps ({self.train_steps}), "

@@ -28,6 +28,13 @@ from agents.batch import as_batch
 from agents.learned.data import chunk_to_actions
 from agents.learned.diffusion import DiffusionConfig, DiffusionModel
 from agents.learned.features import policy_input, slide_done
+from agents.learned.frames import (
+    MAX_ROT_STEP,
+    MAX_TIP_STEP,
+    TARGET_SIZE,
+    step_toward,
+    task_frames,
+)
 from slide_gym.planning.result import json_values
 
 WEIGHTS_FILE = "policy.pt"
@@ -113,21 +120,27 @@ class DiffusionPolicy:
         self.config = model.config
         # the skills in the order they act: [first,] model
         self.skills = [first.eval(), self.model] if first is not None else [self.model]
-        if first is not None and first.action_dim != model.action_dim:
+        if first is not None and _env_action_dim(first) != _env_action_dim(model):
             raise ValueError(
-                f"the first skill's actions ({first.action_dim} entries) differ from the "
-                f"policy's ({model.action_dim})"
+                f"the first skill's actions ({_env_action_dim(first)} entries) differ from "
+                f"the policy's ({_env_action_dim(model)})"
             )
         self.horizons = [self._action_horizon(m.config, action_horizon) for m in self.skills]
         self.action_horizon = self.horizons[-1]
         self.inference_steps = inference_steps
         self.noise_scale = self._noise_scale(noise_scale)
         self.card = dict(card or {})
+        env_kwargs = self.card.get("env_kwargs") or {}
+        self.max_steps = (
+            float(env_kwargs.get("max_tip_step", MAX_TIP_STEP)),
+            float(env_kwargs.get("max_rot_step", MAX_ROT_STEP)),
+        )
         self.seed = int(seed)
         self.generator = torch.Generator().manual_seed(self.seed)
         self._history: list[list[np.ndarray]] = []
         self._queues: list[list[np.ndarray]] = []
         self._skill: list[int] = []  # per slot: the index in self.skills acting now
+        self._frames: list[np.ndarray | None] = []  # per slot: the task frame of "targets"
 
     @staticmethod
     def _action_horizon(config: DiffusionConfig, action_horizon: int | None) -> int:
@@ -174,7 +187,7 @@ class DiffusionPolicy:
         if seed is not None:
             self.seed = int(seed)
         self.generator = torch.Generator().manual_seed(self.seed)
-        self._history, self._queues, self._skill = [], [], []
+        self._history, self._queues, self._skill, self._frames = [], [], [], []
 
     def predict(
         self,
@@ -191,6 +204,7 @@ class DiffusionPolicy:
             self._history.append([])
             self._queues.append([])
             self._skill.append(0)
+            self._frames.append(None)
         done = slide_done(obs) if len(self.skills) > 1 else np.zeros(n, dtype=bool)
         fresh = np.zeros(n, dtype=bool)
         for i in range(n):
@@ -212,6 +226,8 @@ class DiffusionPolicy:
                 if fresh[i]:
                     self._history[i] = [rows[i]] * config.obs_horizon
                     self._queues[i] = []
+                    if config.actions == "targets":
+                        self._frames[i] = task_frames({k: v[i : i + 1] for k, v in obs.items()})[0]
                 else:
                     self._history[i] = [*self._history[i][1:], rows[i]]
             need = [i for i in slots if not self._queues[i]]
@@ -226,6 +242,23 @@ class DiffusionPolicy:
                     if config.hand == "binary":
                         actions[:, -1] = np.where(actions[:, -1] > 0.0, 1.0, -1.0)
                     self._queues[i] = list(actions)
-        actions = np.stack([self._queues[i].pop(0) for i in range(n)])
+        actions = np.stack([self._env_action(i, obs) for i in range(n)])
         actions = np.clip(actions, -1.0, 1.0).astype(np.float32)
         return (actions if batched else actions[0]), state
+
+    def _env_action(self, slot: int, obs: dict[str, np.ndarray]) -> np.ndarray:
+        """The next queued entry of ``slot`` as an env action (a target: the step toward it)."""
+        entry = self._queues[slot].pop(0)
+        if self.skills[self._skill[slot]].config.actions != "targets":
+            return entry
+        frame = self._frames[slot]
+        assert frame is not None
+        arm = step_toward(entry[:-1], frame, obs["fingertip_pose"][slot], *self.max_steps)
+        return np.concatenate([arm, entry[-1:]])
+
+
+def _env_action_dim(model: DiffusionModel) -> int:
+    """Entries of the env action a model's chunks stand for."""
+    if model.config.actions == "targets":
+        return model.action_dim - TARGET_SIZE + 6
+    return model.action_dim

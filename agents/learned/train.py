@@ -183,6 +183,7 @@ def train_diffusion(
         tip_axes=config.tip_axes,
         only_success=only_success,
         after_slide=first_model is not None,
+        targets=config.actions == "targets",
     )
     if init_model is None:
         config = replace(config, hand=hand_kind(demos.labels))

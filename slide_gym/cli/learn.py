@@ -172,8 +172,9 @@ def add_parsers(sub: Any) -> None:
     p.add_argument(
         "--actions",
         default="deltas",
-        choices=("offsets", "deltas"),
-        help="chunk arm motion as offsets from the current target, or per-step increments",
+        choices=("offsets", "deltas", "targets"),
+        help="chunk arm motion as offsets from the current target, per-step increments, or "
+        "fingertip poses in the plate's edge frame (ee_delta demonstrations only)",
     )
     p.add_argument(
         "--scaling",

@@ -1,0 +1,91 @@
+"""Fingertip targets in a task frame: the ``"targets"`` action representation.
+
+Per-step increments (``"deltas"``) say how to move, not where to go, so a grasp that is learned
+as increments lands wherever their errors add up to. With ``"targets"`` a chunk holds where
+the fingertip should be after each step, as a pose in a frame fixed to the task when the
+policy (or skill) starts acting, and each step's ``ee_delta`` action is the clipped step from
+the measured fingertip pose toward the current target:
+
+- the frame's origin is the plate's bottom-face centroid, its x axis the outward normal of
+  the table edge nearest the plate (:func:`~agents.learned.features.task_features`) and its z
+  axis world up. Every grasp of a slid plate approaches that edge, so in this frame the
+  demonstrated grasps nearly coincide wherever the plate ended up;
+- a target is the position (3) and the first two columns of the orientation (6, the
+  continuous 6-D rotation of Zhou et al. 2019) of the fingertip in that frame;
+- the label of step ``t`` is the fingertip pose measured after it (observation ``t + 1``).
+
+Only ``control_mode="ee_delta"`` demonstrations (7 action entries) can be represented this
+way; a chunk then has :data:`TARGET_SIZE` + 1 entries (the hand command last).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from agents.learned.features import quat_to_matrix, task_features
+
+TARGET_SIZE = 9
+"""Entries of a target: position (3) and the orientation's first two columns (6)."""
+EE_ACTION_SIZE = 7
+"""Entries of an ``ee_delta`` action: position (3), rotation vector (3), hand (1)."""
+MAX_TIP_STEP = 0.01
+"""m: the env's default ``max_tip_step`` (what one action entry of 1 moves the target)."""
+MAX_ROT_STEP = 0.05
+"""rad: the env's default ``max_rot_step``."""
+
+
+def task_frames(obs: Mapping[str, np.ndarray]) -> np.ndarray:
+    """(N, 4, 4) task frames (see the module docstring) of a batch of observations."""
+    plate = np.asarray(obs["object_pose"], np.float64)
+    normal = task_features(obs)[:, 6:8].astype(np.float64)
+    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-12)
+    frames = np.zeros((len(plate), 4, 4))
+    frames[:, 0, 0], frames[:, 1, 0] = normal[:, 0], normal[:, 1]
+    frames[:, 0, 1], frames[:, 1, 1] = -normal[:, 1], normal[:, 0]
+    frames[:, 2, 2] = 1.0
+    frames[:, :3, 3] = plate[:, :3]
+    frames[:, 3, 3] = 1.0
+    return frames
+
+
+def targets_in_frame(fingertip_pose: np.ndarray, frame: np.ndarray) -> np.ndarray:
+    """(N, :data:`TARGET_SIZE`) float32: fingertip poses (N, 7: position, quaternion xyzw)
+    in one task frame (4, 4)."""
+    pose = np.asarray(fingertip_pose, np.float64)
+    rot_f, origin = frame[:3, :3], frame[:3, 3]
+    pos = (pose[:, :3] - origin) @ rot_f
+    rot = np.einsum("ji,njk->nik", rot_f, quat_to_matrix(pose[:, 3:]))
+    return np.column_stack([pos, rot[:, :, 0], rot[:, :, 1]]).astype(np.float32)
+
+
+def _orthonormal(six: np.ndarray) -> np.ndarray:
+    """The rotation (3, 3) whose first two columns are nearest the 6-D vector (Gram-Schmidt)."""
+    a, b = six[:3], six[3:6]
+    x = a / max(float(np.linalg.norm(a)), 1e-9)
+    y = b - x * float(x @ b)
+    y /= max(float(np.linalg.norm(y)), 1e-9)
+    return np.column_stack([x, y, np.cross(x, y)])
+
+
+def step_toward(
+    target: np.ndarray,
+    frame: np.ndarray,
+    fingertip_pose: np.ndarray,
+    max_tip_step: float = MAX_TIP_STEP,
+    max_rot_step: float = MAX_ROT_STEP,
+) -> np.ndarray:
+    """(6,) float32: the arm part of an ``ee_delta`` action from the measured
+    ``fingertip_pose`` (7,) toward ``target`` (:data:`TARGET_SIZE`,) in ``frame``, each
+    entry clipped to [-1, 1]."""
+    from slide_gym.envs.control import rotation_vector
+
+    target = np.asarray(target, np.float64)
+    pose = np.asarray(fingertip_pose, np.float64)
+    pos = frame[:3, 3] + frame[:3, :3] @ target[:3]
+    rot = frame[:3, :3] @ _orthonormal(target[3:])
+    now = quat_to_matrix(pose[None, 3:])[0]
+    move = (pos - pose[:3]) / max_tip_step
+    turn = rotation_vector(rot @ now.T) / max_rot_step
+    return np.clip(np.concatenate([move, turn]), -1.0, 1.0).astype(np.float32)

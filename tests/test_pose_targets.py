@@ -102,13 +102,34 @@ def test_only_fingertip_step_demonstrations_give_targets(minari_root):
         load_demonstrations(load("test/joint-slide-v0"), targets=True)
 
 
-def test_a_policy_of_targets_steps_toward_them(ee_slide, tmp_path):
+@pytest.fixture(scope="module")
+def targets_policy(ee_slide, tmp_path_factory):
     train = TrainConfig(iterations=20, batch_size=16, warmup=2, log_every=10, val_episodes=0)
-    out = tmp_path / "targets"
+    out = tmp_path_factory.mktemp("targets") / "run"
+    card = {"dataset_id": "test/ee-slide-v0"}
     train_diffusion(
-        ee_slide, out, config=TINY, train=train, env_id=ENV_ID, env_kwargs=EE, progress=False
+        ee_slide,
+        out,
+        config=TINY,
+        train=train,
+        env_id=ENV_ID,
+        env_kwargs=EE,
+        card=card,
+        progress=False,
     )
-    policy = DiffusionPolicy.load(out, seed=0)
+    return out
+
+
+def test_dagger_refuses_a_policy_of_targets(targets_policy, capsys):
+    args = ["dagger", "--env", ENV_ID, "--policy", str(targets_policy), "--rounds", "1"]
+    args += ["--episodes", "1", "--out", "unused", "--dataset-id", "test/dagger-targets-v0"]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert "acts with fingertip targets" in err and len(err.splitlines()) == 1
+
+
+def test_a_policy_of_targets_steps_toward_them(targets_policy):
+    policy = DiffusionPolicy.load(targets_policy, seed=0)
     env = gym.make(ENV_ID, **EE)
     try:
         obs, _ = env.reset(seed=5)

@@ -5,6 +5,8 @@
   plate in the fingertip frame, the nearest table edge and the overhang, all from the
   observation alone);
 - :mod:`~agents.learned.data`: demonstrations as windows of inputs and action chunks;
+- :mod:`~agents.learned.frames`: chunks of fingertip targets in the plate's edge frame
+  (``--actions targets``) and the step toward one;
 - :mod:`~agents.learned.unet`, :mod:`~agents.learned.diffusion`: the network, the noise
   schedule, DDIM sampling, EMA;
 - :mod:`~agents.learned.train`: ``slide-gym train-dp`` (checkpoints, validation, resume);

@@ -221,6 +221,12 @@ def run_dagger(
             "with `slide-gym train-dp DATASET_ID --out DIR`"
         )
     card = json.loads((Path(policy_dir) / "policy.json").read_text())
+    if card.get("config", {}).get("actions") == "targets":
+        raise ValueError(
+            f"--policy {str(policy_dir)!r} acts with fingertip targets, which learn from the "
+            "demonstrated motion and not from an expert's labels; DAgger needs --actions "
+            "deltas or offsets"
+        )
     base_id = card.get("dataset_id")
     if not base_id:
         raise ValueError(f"{str(policy_dir)!r}: its policy.json names no dataset_id")

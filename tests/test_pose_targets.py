@@ -16,9 +16,9 @@ import torch  # noqa: E402
 import slide_gym  # noqa: E402,F401 - registers the environments
 from agents.learned.data import ChunkSampler, load_demonstrations  # noqa: E402
 from agents.learned.diffusion import DiffusionConfig  # noqa: E402
-from agents.learned.features import quat_to_matrix  # noqa: E402
 from agents.learned.frames import (  # noqa: E402
     TARGET_SIZE,
+    arm_fingertip_poses,
     step_toward,
     targets_in_frame,
     task_frames,
@@ -46,7 +46,7 @@ def ee_slide(minari_root):
     return load("test/ee-slide-v0")
 
 
-def test_a_target_is_the_measured_pose_after_the_step_in_the_first_frame(ee_slide):
+def test_a_target_is_the_arms_fingertip_pose_after_the_step_in_the_first_frame(ee_slide):
     demos = load_demonstrations(ee_slide, targets=True)
     episode = next(ee_slide.iterate_episodes())
     obs = {k: np.asarray(v) for k, v in episode.observations.items()}
@@ -56,11 +56,15 @@ def test_a_target_is_the_measured_pose_after_the_step_in_the_first_frame(ee_slid
     frame = task_frames({k: v[:1] for k, v in obs.items()})[0]
     for t in (0, n // 2, n - 1):
         target = demos.labels[t, :TARGET_SIZE].astype(np.float64)
+        tip = arm_fingertip_poses(obs["arm_qpos"][t + 1])[0]
         pos = frame[:3, 3] + frame[:3, :3] @ target[:3]
-        np.testing.assert_allclose(pos, obs["fingertip_pose"][t + 1, :3], atol=1e-6)
+        np.testing.assert_allclose(pos, tip[:3, 3], atol=1e-6)
         rot = frame[:3, :3] @ np.column_stack([target[3:6], target[6:9]])
-        tip = quat_to_matrix(obs["fingertip_pose"][t + 1, 3:].astype(np.float64))
-        np.testing.assert_allclose(rot, tip[:, :2], atol=1e-5)
+        np.testing.assert_allclose(rot, tip[:3, :2], atol=1e-5)
+    # with the hand at rest and no contact, that is the observed fingertip pose
+    np.testing.assert_allclose(
+        arm_fingertip_poses(obs["arm_qpos"][0])[0, :3, 3], obs["fingertip_pose"][0, :3], atol=2e-3
+    )
 
 
 def test_the_task_frame_faces_the_nearest_table_edge():
@@ -78,13 +82,13 @@ def test_the_task_frame_faces_the_nearest_table_edge():
 def test_the_step_toward_a_target_is_zero_there_and_clipped_far_away():
     frame = np.eye(4)
     frame[:3, 3] = [0.6, 0.1, 0.7]
-    pose = np.array([0.62, 0.08, 0.75, 0.0, 0.0, 0.0, 1.0])
-    here = targets_in_frame(pose[None], frame)[0]
-    np.testing.assert_allclose(step_toward(here, frame, pose), np.zeros(6), atol=1e-5)
+    q = np.array([0.1, 0.9, 0.0, 1.2, 0.0, 0.4, 0.0])
+    here = targets_in_frame(arm_fingertip_poses(q), frame)[0]
+    np.testing.assert_allclose(step_toward(here, frame, q), np.zeros(6), atol=1e-5)
     far = here.copy()
     far[0] += 0.004  # 4 mm along the frame's x: 0.4 of a 1 cm step
     far[2] += 0.5  # half a metre up: clipped to a full step
-    step = step_toward(far, frame, pose)
+    step = step_toward(far, frame, q)
     np.testing.assert_allclose(step, [0.4, 0.0, 1.0, 0.0, 0.0, 0.0], atol=1e-4)
 
 
@@ -139,7 +143,7 @@ def test_a_policy_of_targets_steps_toward_them(targets_policy):
         entry = policy._queues[0][0].copy()  # noqa: SLF001 - the next step's target
         obs, *_ = env.step(action)
         frame = policy._frames[0]  # noqa: SLF001
-        expected = step_toward(entry[:-1], frame, obs["fingertip_pose"])
+        expected = step_toward(entry[:-1], frame, obs["arm_qpos"])
         second, _ = policy.predict(obs, episode_start=np.array([False]))
         np.testing.assert_allclose(second[:6], expected, atol=1e-6)
     finally:

@@ -20,7 +20,12 @@ from typing import Any
 import numpy as np
 
 from agents.learned.features import policy_input, slide_done
-from agents.learned.frames import EE_ACTION_SIZE, targets_in_frame, task_frames
+from agents.learned.frames import (
+    EE_ACTION_SIZE,
+    arm_fingertip_poses,
+    targets_in_frame,
+    task_frames,
+)
 from slide_gym.datasets.recording import LABEL_KEY
 
 MIN_STD = 1e-2
@@ -81,7 +86,7 @@ def load_demonstrations(
     step where :func:`~agents.learned.features.slide_done` holds (an episode where it never
     does is skipped), the part a skill that takes over after a slide learns from.
     ``with_features``, ``tip_axes``: the inputs, as :func:`~agents.learned.features.policy_input`.
-    ``targets``: the arm labels are the fingertip poses measured after each step, in the task
+    ``targets``: the arm labels are the arm's fingertip poses after each step, in the task
     frame of the episode's first kept observation (:mod:`agents.learned.frames`; ``ee_delta``
     demonstrations only, and not relabelled ones). ValueError if none is left."""
     episode_ids = list(range(dataset.total_episodes))
@@ -135,8 +140,8 @@ def load_demonstrations(
 def _pose_targets(
     episode: Any, obs: dict[str, np.ndarray], labels: np.ndarray, first: int
 ) -> np.ndarray:
-    """(n, TARGET_SIZE + 1) labels of ``"targets"``: the fingertip pose after each kept step
-    in the task frame of the first kept observation, then the hand command."""
+    """(n, TARGET_SIZE + 1) labels of ``"targets"``: the arm's fingertip pose after each kept
+    step in the task frame of the first kept observation, then the hand command."""
     if labels.shape[1] != EE_ACTION_SIZE:
         raise ValueError(
             f"fingertip targets need ee_delta demonstrations ({EE_ACTION_SIZE} action "
@@ -148,8 +153,9 @@ def _pose_targets(
             "fingertip targets are the demonstrated motion itself, so they cannot learn from "
             "relabelled (DART or DAgger) episodes; use --actions deltas"
         )
-    after = np.asarray(episode.observations["fingertip_pose"])[first + 1 : first + 1 + len(labels)]
-    poses = targets_in_frame(after, task_frames({k: v[:1] for k, v in obs.items()})[0])
+    after = np.asarray(episode.observations["arm_qpos"])[first + 1 : first + 1 + len(labels)]
+    frame = task_frames({k: v[:1] for k, v in obs.items()})[0]
+    poses = targets_in_frame(arm_fingertip_poses(after), frame)
     return np.column_stack([poses, labels[:, -1:]]).astype(np.float32)
 
 

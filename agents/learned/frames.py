@@ -12,7 +12,11 @@ the measured fingertip pose toward the current target:
   demonstrated grasps nearly coincide wherever the plate ended up;
 - a target is the position (3) and the first two columns of the orientation (6, the
   continuous 6-D rotation of Zhou et al. 2019) of the fingertip in that frame;
-- the label of step ``t`` is the fingertip pose measured after it (observation ``t + 1``).
+- the fingertip pose is the one the ``ee_delta`` controller commands: the forward kinematics
+  of the observed arm joints with the hand at rest (:func:`arm_fingertip_poses`). The
+  observation's ``fingertip_pose`` also moves with the finger springs: closing the hand swings
+  it a few centimetres, which a target would turn into an arm motion;
+- the label of step ``t`` is that pose after it (observation ``t + 1``).
 
 Only ``control_mode="ee_delta"`` demonstrations (7 action entries) can be represented this
 way; a chunk then has :data:`TARGET_SIZE` + 1 entries (the hand command last).
@@ -24,7 +28,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from agents.learned.features import quat_to_matrix, task_features
+from agents.learned.features import task_features
 
 TARGET_SIZE = 9
 """Entries of a target: position (3) and the orientation's first two columns (6)."""
@@ -50,13 +54,19 @@ def task_frames(obs: Mapping[str, np.ndarray]) -> np.ndarray:
     return frames
 
 
-def targets_in_frame(fingertip_pose: np.ndarray, frame: np.ndarray) -> np.ndarray:
-    """(N, :data:`TARGET_SIZE`) float32: fingertip poses (N, 7: position, quaternion xyzw)
-    in one task frame (4, 4)."""
-    pose = np.asarray(fingertip_pose, np.float64)
+def arm_fingertip_poses(arm_qpos: np.ndarray) -> np.ndarray:
+    """(N, 4, 4) world poses of the ``fingertip_contact`` frame for arm joint angles (N, 7),
+    the hand at rest: the frame the ``ee_delta`` controller moves."""
+    from slide_gym.robot.kinematics import fingertip_chain
+
+    return fingertip_chain().forward(np.asarray(arm_qpos, np.float64).reshape(-1, 7))
+
+
+def targets_in_frame(poses: np.ndarray, frame: np.ndarray) -> np.ndarray:
+    """(N, :data:`TARGET_SIZE`) float32: poses (N, 4, 4) in one task frame (4, 4)."""
     rot_f, origin = frame[:3, :3], frame[:3, 3]
-    pos = (pose[:, :3] - origin) @ rot_f
-    rot = np.einsum("ji,njk->nik", rot_f, quat_to_matrix(pose[:, 3:]))
+    pos = (poses[:, :3, 3] - origin) @ rot_f
+    rot = np.einsum("ji,njk->nik", rot_f, poses[:, :3, :3])
     return np.column_stack([pos, rot[:, :, 0], rot[:, :, 1]]).astype(np.float32)
 
 
@@ -72,20 +82,19 @@ def _orthonormal(six: np.ndarray) -> np.ndarray:
 def step_toward(
     target: np.ndarray,
     frame: np.ndarray,
-    fingertip_pose: np.ndarray,
+    arm_qpos: np.ndarray,
     max_tip_step: float = MAX_TIP_STEP,
     max_rot_step: float = MAX_ROT_STEP,
 ) -> np.ndarray:
-    """(6,) float32: the arm part of an ``ee_delta`` action from the measured
-    ``fingertip_pose`` (7,) toward ``target`` (:data:`TARGET_SIZE`,) in ``frame``, each
+    """(6,) float32: the arm part of an ``ee_delta`` action from the fingertip pose of the
+    observed ``arm_qpos`` (7,) toward ``target`` (:data:`TARGET_SIZE`,) in ``frame``, each
     entry clipped to [-1, 1]."""
     from slide_gym.envs.control import rotation_vector
 
     target = np.asarray(target, np.float64)
-    pose = np.asarray(fingertip_pose, np.float64)
+    now = arm_fingertip_poses(arm_qpos)[0]
     pos = frame[:3, 3] + frame[:3, :3] @ target[:3]
     rot = frame[:3, :3] @ _orthonormal(target[3:])
-    now = quat_to_matrix(pose[None, 3:])[0]
-    move = (pos - pose[:3]) / max_tip_step
-    turn = rotation_vector(rot @ now.T) / max_rot_step
+    move = (pos - now[:3, 3]) / max_tip_step
+    turn = rotation_vector(rot @ now[:3, :3].T) / max_rot_step
     return np.clip(np.concatenate([move, turn]), -1.0, 1.0).astype(np.float32)

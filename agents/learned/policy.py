@@ -253,7 +253,7 @@ class DiffusionPolicy:
             return entry
         frame = self._frames[slot]
         assert frame is not None
-        arm = step_toward(entry[:-1], frame, obs["fingertip_pose"][slot], *self.max_steps)
+        arm = step_toward(entry[:-1], frame, obs["arm_qpos"][slot], *self.max_steps)
         return np.concatenate([arm, entry[-1:]])
 
 

@@ -151,7 +151,8 @@ class PhysicsParams:
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
                 raise ValueError(f"{name} must be a whole number >= 1, got {value!r}")
         threshold = self.solver_residual_threshold
-        if not (np.isfinite(threshold) and 0 < threshold <= 0.01):
+        number = isinstance(threshold, (int, float, np.number)) and not isinstance(threshold, bool)
+        if not (number and np.isfinite(threshold) and 0 < threshold <= 0.01):
             raise ValueError(f"solver_residual_threshold must be in (0, 0.01], got {threshold}")
         for name in ("near_distance", "prism_margin"):
             value = getattr(self, name)

@@ -48,6 +48,7 @@ def _engine(sim: Simulation) -> tuple[float, int]:
         ("solver_residual_threshold", 0.0),
         ("solver_residual_threshold", float("nan")),
         ("solver_residual_threshold", 0.5),
+        ("solver_residual_threshold", "1e-4"),
     ],
 )
 def test_bad_physics_settings_are_rejected(field: str, value: object) -> None:

@@ -20,13 +20,9 @@ from typing import Any
 import numpy as np
 
 from agents.learned.features import policy_input, slide_done
-from agents.learned.frames import (
-    EE_ACTION_SIZE,
-    arm_fingertip_poses,
-    targets_in_frame,
-    task_frames,
-)
+from agents.learned.frames import arm_fingertip_poses, targets_in_frame, task_frames
 from slide_gym.datasets.recording import LABEL_KEY
+from slide_gym.envs.control import EE_ACTION_SIZE
 
 MIN_STD = 1e-2
 """Floor of the standard deviations the inputs are divided by."""

@@ -28,22 +28,20 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from agents.learned.features import task_features
+from agents.learned.features import TASK_FEATURES, task_features
+from slide_gym.envs.control import MAX_ROT_STEP, MAX_TIP_STEP, rotation_vector
 
 TARGET_SIZE = 9
 """Entries of a target: position (3) and the orientation's first two columns (6)."""
-EE_ACTION_SIZE = 7
-"""Entries of an ``ee_delta`` action: position (3), rotation vector (3), hand (1)."""
-MAX_TIP_STEP = 0.01
-"""m: the env's default ``max_tip_step`` (what one action entry of 1 moves the target)."""
-MAX_ROT_STEP = 0.05
-"""rad: the env's default ``max_rot_step``."""
+_NAMES = [name for name, _ in TASK_FEATURES]
+_EDGE = sum(size for _, size in TASK_FEATURES[: _NAMES.index("edge_direction")])
+"""Column of the ``edge_direction`` feature in :func:`task_features`."""
 
 
 def task_frames(obs: Mapping[str, np.ndarray]) -> np.ndarray:
     """(N, 4, 4) task frames (see the module docstring) of a batch of observations."""
     plate = np.asarray(obs["object_pose"], np.float64)
-    normal = task_features(obs)[:, 6:8].astype(np.float64)
+    normal = task_features(obs)[:, _EDGE : _EDGE + 2].astype(np.float64)
     normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-12)
     frames = np.zeros((len(plate), 4, 4))
     frames[:, 0, 0], frames[:, 1, 0] = normal[:, 0], normal[:, 1]
@@ -89,8 +87,6 @@ def step_toward(
     """(6,) float32: the arm part of an ``ee_delta`` action from the fingertip pose of the
     observed ``arm_qpos`` (7,) toward ``target`` (:data:`TARGET_SIZE`,) in ``frame``, each
     entry clipped to [-1, 1]."""
-    from slide_gym.envs.control import rotation_vector
-
     target = np.asarray(target, np.float64)
     now = arm_fingertip_poses(arm_qpos)[0]
     pos = frame[:3, 3] + frame[:3, :3] @ target[:3]

@@ -28,13 +28,8 @@ from agents.batch import as_batch
 from agents.learned.data import chunk_to_actions
 from agents.learned.diffusion import DiffusionConfig, DiffusionModel
 from agents.learned.features import policy_input, slide_done
-from agents.learned.frames import (
-    MAX_ROT_STEP,
-    MAX_TIP_STEP,
-    TARGET_SIZE,
-    step_toward,
-    task_frames,
-)
+from agents.learned.frames import TARGET_SIZE, step_toward, task_frames
+from slide_gym.envs.control import EE_ACTION_SIZE, MAX_ROT_STEP, MAX_TIP_STEP
 from slide_gym.planning.result import json_values
 
 WEIGHTS_FILE = "policy.pt"
@@ -260,5 +255,5 @@ class DiffusionPolicy:
 def _env_action_dim(model: DiffusionModel) -> int:
     """Entries of the env action a model's chunks stand for."""
     if model.config.actions == "targets":
-        return model.action_dim - TARGET_SIZE + 6
+        return model.action_dim - TARGET_SIZE + EE_ACTION_SIZE - 1
     return model.action_dim

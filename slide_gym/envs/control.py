@@ -17,6 +17,12 @@ from slide_gym.planning.ik import IKParams, IKTarget, pose_error
 from slide_gym.robot.kinematics import fingertip_chain
 from slide_gym.robot.model import ARM_LOWER, ARM_UPPER
 
+MAX_TIP_STEP = 0.01
+"""m: the default ``ee_delta`` position step (an action entry of 1)."""
+MAX_ROT_STEP = 0.05
+"""rad: the default ``ee_delta`` rotation step."""
+EE_ACTION_SIZE = 7
+"""Entries of an ``ee_delta`` action: position (3), rotation vector (3), hand command (1)."""
 CONTROL_MODES = ("joint_delta", "ee_delta")
 """``"joint_delta"``: arm joint-position increments; ``"ee_delta"``: fingertip-pose increments."""
 
@@ -92,13 +98,16 @@ class EEDeltaControl(ArmControl):
     RESYNC_POS, RESYNC_ROT = 1e-3, 1e-2  # m, rad: misses larger than this re-sync the target
 
     def __init__(
-        self, max_joint_step: float, max_tip_step: float = 0.01, max_rot_step: float = 0.05
+        self,
+        max_joint_step: float,
+        max_tip_step: float = MAX_TIP_STEP,
+        max_rot_step: float = MAX_ROT_STEP,
     ):
         super().__init__()
         self.max_joint_step = _positive("max_joint_step", max_joint_step)
         self.max_tip_step = _positive("max_tip_step", max_tip_step)
         self.max_rot_step = _positive("max_rot_step", max_rot_step)
-        self.action_space = spaces.Box(-1.0, 1.0, (7,), np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (EE_ACTION_SIZE,), np.float32)
         self.chain = fingertip_chain()
         ik = IKParams()
         self._damping = ik.damping**2 * np.eye(6)
@@ -181,7 +190,10 @@ def rotation_vector(rot: np.ndarray) -> np.ndarray:
 
 
 def make_control(
-    mode: str, max_joint_step: float, max_tip_step: float = 0.01, max_rot_step: float = 0.05
+    mode: str,
+    max_joint_step: float,
+    max_tip_step: float = MAX_TIP_STEP,
+    max_rot_step: float = MAX_ROT_STEP,
 ) -> ArmControl:
     """The controller of ``mode`` (one of :data:`CONTROL_MODES`); the step sizes are checked
     whatever the mode."""

@@ -8,7 +8,7 @@ import gymnasium as gym
 import numpy as np
 
 from slide_gym.envs.cameras import RENDER_SIZE, Camera, CameraModel, image_size, render_frame
-from slide_gym.envs.control import make_control
+from slide_gym.envs.control import MAX_ROT_STEP, MAX_TIP_STEP, make_control
 from slide_gym.envs.observation import OBS_MODES, make_observation
 from slide_gym.envs.randomization import (
     apply_to_scene,
@@ -239,8 +239,8 @@ class TopSlideEnv(gym.Env):
         thickness: float | None = None,
         control_mode: str = "joint_delta",
         obs_mode: str = "state",
-        max_tip_step: float = 0.01,
-        max_rot_step: float = 0.05,
+        max_tip_step: float = MAX_TIP_STEP,
+        max_rot_step: float = MAX_ROT_STEP,
         render_width: int | None = None,
         render_height: int | None = None,
         camera: Camera | dict[str, Any] | None = None,

@@ -105,3 +105,41 @@ def test_labels_of_a_skipped_phase_are_given_but_withheld(scene):
     labeler.skip_phases = frozenset({"release"})
     labeler.label(obs, 1, False)
     assert not labeler.withheld
+
+
+def _branch(env):
+    from slide_gym.datasets.recording import reset_options
+
+    branch = gym.make(CONFIG.env_id, **CONFIG.env_kwargs()).unwrapped
+    branch.reset(seed=3, options=reset_options(env, CONFIG))
+    return branch
+
+
+def test_a_chunk_label_is_what_the_expert_does_next_when_it_acts(scene):
+    env, obs, labeler = scene
+    branch = _branch(env)
+    try:
+        chunks, actions = {}, []
+        for t in range(64):
+            label = labeler.label(obs, t, t % 8 == 0)
+            if t in (0, 24, 40):
+                state = env.unwrapped.get_state()
+                expert = labeler.agent.expert(0)
+                before = (expert.q_cmd.copy(), expert.phase, len(expert.queue))
+                chunks[t] = labeler.chunk(label, branch, state, 15)
+                # the learner's env and the labelling expert are as they were
+                assert np.array_equal(env.unwrapped.get_state(), state)
+                assert labeler.agent.expert(0) is expert
+                after = (expert.q_cmd, expert.phase, len(expert.queue))
+                assert np.array_equal(before[0], after[0]) and before[1:] == after[1:]
+            labeler.executed(label)
+            actions.append(label)
+            obs, *_ = env.step(label)
+        actions = np.stack(actions)
+        for t, chunk in chunks.items():
+            assert chunk is not None and chunk.shape == (15, 7)
+            assert np.array_equal(chunk[0], actions[t])
+            # the copy ran the same plan in a restored world (contact caches rebuilt)
+            assert np.abs(chunk - actions[t : t + 15]).max() < 0.05
+    finally:
+        branch.close()

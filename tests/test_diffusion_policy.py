@@ -27,7 +27,7 @@ from agents.learned.train import (  # noqa: E402
     train_diffusion,
 )
 from slide_gym.cli import main  # noqa: E402
-from slide_gym.datasets.recording import LABEL_KEY  # noqa: E402
+from slide_gym.datasets.recording import CHUNK_KEY, LABEL_KEY  # noqa: E402
 from slide_gym.datasets.store import load, read_episodes  # noqa: E402
 
 torch.set_num_threads(1)
@@ -356,6 +356,41 @@ def test_one_dagger_round_adds_labelled_steps(dart, trained, tmp_path):
     assert again["rounds"][0]["labelled_steps"] == 24
 
 
+def test_a_dagger_round_with_chunk_labels_trains_on_those_windows_only(dart, trained, tmp_path):
+    from agents.learned.dagger import DaggerConfig, run_dagger
+
+    config = DaggerConfig(
+        rounds=1, episodes=1, iterations=20, max_steps=24, label_budget=60.0, chunk_every=4
+    )
+    summary = run_dagger(trained, tmp_path / "dagger", "test/dagger-chunks-v0", config, workers=1)
+    (row,) = summary["rounds"]
+    assert row["chunk_queries"] == 6 and row["chunk_failures"] == 0  # steps 0, 4, ..., 20
+    aggregate = load("test/dagger-chunks-v0")
+    eps = list(read_episodes(aggregate))
+    rollout = eps[2]
+    chunks = rollout.infos[CHUNK_KEY][1:]
+    assert chunks.shape == (24, 15, 8)  # chunks of 16 from an observation horizon of 2
+    asked = np.isfinite(chunks).all(axis=(1, 2))
+    assert np.array_equal(np.flatnonzero(asked), np.arange(0, 24, 4))
+    # the chunk starts with the step's per-step label: the expert's action from that state
+    labels = rollout.infos[LABEL_KEY][1:]
+    assert np.allclose(chunks[asked][:, 0], labels[asked])
+    assert np.isnan(eps[0].infos[CHUNK_KEY]).all()  # a demonstration has none
+    demos = load_demonstrations(aggregate)
+    sampler = ChunkSampler(demos, obs_horizon=2, pred_horizon=16, representation="deltas")
+    demo_windows = int(demos.lengths[:2].sum())
+    assert len(sampler) == demo_windows + 6  # the rollout gives its 6 labelled steps only
+    rollout_chunks = sampler.chunks[demo_windows:]
+    assert np.allclose(rollout_chunks[:, 1:], chunks[asked])
+    # before the step: the action executed (none at the episode's start)
+    executed = np.asarray(rollout.actions, np.float32)
+    assert np.allclose(rollout_chunks[1:, 0], executed[np.arange(4, 24, 4) - 1])
+    with pytest.raises(ValueError, match="--actions deltas"):
+        ChunkSampler(demos, obs_horizon=2, pred_horizon=16, representation="offsets")
+    with pytest.raises(ValueError, match="cannot fill chunks of 32"):
+        ChunkSampler(demos, obs_horizon=2, pred_horizon=32, representation="deltas")
+
+
 def test_a_dagger_round_of_a_grasp_skill_keeps_its_slide_skill(
     dart, trained, tmp_path, monkeypatch
 ):
@@ -404,6 +439,11 @@ def test_a_dagger_round_of_a_grasp_skill_keeps_its_slide_skill(
             ["dagger", "--policy", "{empty}", "--skip-phases", "releese", "--out", "d"]
             + ["--dataset-id", "tt/d-v0"],
             "unknown expert phase(s) releese; allowed: plan, approach",
+        ),
+        (
+            ["dagger", "--policy", "{empty}", "--chunk-labels", "-1", "--out", "d"]
+            + ["--dataset-id", "tt/d-v0"],
+            "--chunk-labels must be a whole number >= 0",
         ),
         (
             [

@@ -11,6 +11,13 @@ an expert whose plan failed are dropped (NaN, which the trainer skips) and count
 labels given in one of ``skip_phases`` (e.g. ``release``: the expert raising a fingertip the
 learner put where its plan cannot go on, a motion no demonstration shows).
 
+With ``chunk_every`` K, every K-th step also gets a chunk label
+(:meth:`~agents.learned.labeler.PlanLabeler.chunk`): the expert's own next actions from the
+learner's state, run in a second env of the scene, as long as the part of a chunk the policy
+predicts from there. The trainer then learns from those windows only and not from the
+per-step labels, which along a motion the learner chose are no chunk the expert would
+execute.
+
 Each episode is kept like a collected one (executed actions, so a reset with its seed and
 options replays it exactly; the labels in ``infos["expert_action"]``; ``dagger_round`` in
 its metadata), staged under ``OUT/round-R/episodes`` as it finishes (a rerun resumes), and
@@ -38,6 +45,7 @@ from agents.learned.labeler import PlanLabeler
 from agents.learned.policy import FIRST_FILE, DiffusionPolicy, is_policy_dir
 from slide_gym.datasets.config import CollectConfig, check_dataset_id
 from slide_gym.datasets.recording import (
+    CHUNK_KEY,
     LABEL_KEY,
     RecordedEpisode,
     reset_options,
@@ -62,6 +70,8 @@ class DaggerConfig:
         max_steps: cut learner episodes after this many steps (None: the env's time limit).
         skip_phases: expert phases (:data:`agents.expert.PHASES`) whose labels are withheld
             (NaN; the expert still acts in them when it executes a chunk).
+        chunk_every: every this many steps, label the expert's whole chunk from the
+            learner's state (0: per-step labels only).
     """
 
     rounds: int = 2
@@ -73,6 +83,7 @@ class DaggerConfig:
     seed: int = 0
     max_steps: int | None = None
     skip_phases: tuple[str, ...] = ()
+    chunk_every: int = 0
 
     def __post_init__(self) -> None:
         unknown = sorted(set(self.skip_phases) - set(PHASES))
@@ -87,6 +98,9 @@ class DaggerConfig:
             or self.max_steps < 1
         ):
             raise ValueError(f"--max-steps must be a whole number >= 1, got {self.max_steps!r}")
+        every = self.chunk_every
+        if isinstance(every, bool) or not isinstance(every, int) or every < 0:
+            raise ValueError(f"--chunk-labels must be a whole number >= 0, got {every!r}")
         for name in ("rounds", "episodes", "iterations"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
@@ -108,16 +122,21 @@ def rollout_case(case: dict[str, Any]) -> dict[str, Any]:
     seed, round_ = int(case["seed"]), int(case["round"])
     policy = DiffusionPolicy.load(case["policy"], seed=seed)
     horizon = policy.config.action_horizon
+    chunk_every = int(case.get("chunk_every", 0))
+    chunk_length = policy.config.pred_horizon - policy.config.obs_horizon + 1
     rng = np.random.default_rng([seed, round_, case["dagger_seed"]])
     env = gym.make(config.env_id, **config.env_kwargs())
     base = env.unwrapped
-    observations, infos, steps, labels = [], [], [], []
-    expert_chunks = withheld = 0
+    branch = gym.make(config.env_id, **config.env_kwargs()).unwrapped if chunk_every else None
+    observations, infos, steps, labels, chunks = [], [], [], [], []
+    expert_chunks = withheld = chunk_queries = chunk_failures = 0
     labeler: PlanLabeler | None = None
     wall = time.perf_counter()
     try:
         obs, info = env.reset(seed=seed)
         options = reset_options(env, config)
+        if branch is not None:
+            branch.reset(seed=seed, options=options)
         labeler = PlanLabeler(
             config,
             seed,
@@ -141,6 +160,14 @@ def rollout_case(case: dict[str, Any]) -> dict[str, Any]:
             withheld += label is not None and labeler.withheld
             keep = label is not None and not labeler.withheld
             labels.append(label if keep else np.full_like(learner, np.nan))
+            if branch is not None:
+                chunk = None
+                if keep and t % chunk_every == 0:
+                    chunk = labeler.chunk(label, branch, base.get_state(), chunk_length)
+                    chunk_queries += 1
+                    chunk_failures += chunk is None
+                blank = np.full((chunk_length, len(learner)), np.nan, np.float32)
+                chunks.append(blank if chunk is None else chunk)
             obs, reward, term, trunc, info = env.step(action)
             steps.append((np.asarray(action, np.float32), float(reward), term, trunc))
             observations.append(obs)
@@ -150,12 +177,16 @@ def rollout_case(case: dict[str, Any]) -> dict[str, Any]:
     finally:
         if labeler is not None:
             labeler.close()
+        if branch is not None:
+            branch.close()
         env.close()
     queries, failures = labeler.queries, labeler.failures
     reasons = labeler.reasons
     actions = np.stack([s[0] for s in steps])
     stacked = stack_infos(infos)
     stacked[LABEL_KEY] = np.concatenate([np.zeros_like(actions[:1]), np.stack(labels)])
+    if chunks:
+        stacked[CHUNK_KEY] = np.concatenate([np.zeros_like(chunks[0])[None], np.stack(chunks)])
     success = bool(info["is_success"])
     record = {
         "success": success,
@@ -164,6 +195,8 @@ def rollout_case(case: dict[str, Any]) -> dict[str, Any]:
         "label_failures": failures,
         "label_failure_reasons": reasons,
         "labels_withheld": withheld,
+        "chunk_queries": chunk_queries,
+        "chunk_failures": chunk_failures,
         "expert_chunks": expert_chunks,
         "steps": len(actions),
         "wall_time_s": time.perf_counter() - wall,
@@ -185,13 +218,17 @@ def rollout_case(case: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def with_labels(episode: RecordedEpisode) -> RecordedEpisode:
-    """``episode`` with ``infos["expert_action"]`` (its own actions where it has none), so
+def with_labels(episode: RecordedEpisode, chunk_length: int = 0) -> RecordedEpisode:
+    """``episode`` with ``infos["expert_action"]`` (its own actions where it has none) and,
+    with ``chunk_length``, ``infos["expert_chunk"]`` (NaN where it has none), so
     demonstrations and labelled episodes share one set of info keys."""
+    actions = np.asarray(episode.actions, np.float32)
     if LABEL_KEY not in episode.infos:
-        actions = np.asarray(episode.actions, np.float32)
         labels = np.concatenate([np.zeros_like(actions[:1]), actions])
         episode.infos = {**episode.infos, LABEL_KEY: labels}
+    if chunk_length and CHUNK_KEY not in episode.infos:
+        blank = np.full((len(actions) + 1, chunk_length, actions.shape[1]), np.nan, np.float32)
+        episode.infos = {**episode.infos, CHUNK_KEY: blank}
     return episode
 
 
@@ -252,6 +289,7 @@ def run_dagger(
                 "dagger_seed": config.seed,
                 "max_steps": config.max_steps,
                 **({"skip_phases": list(config.skip_phases)} if config.skip_phases else {}),
+                **({"chunk_every": config.chunk_every} if config.chunk_every else {}),
             }
             for s in range(first, first + config.episodes)
         ]
@@ -274,7 +312,11 @@ def run_dagger(
             store=store,
             success_key="success",
         )
-        episodes = [with_labels(e) for e in read_episodes(base)]
+        chunk_length = 0
+        if config.chunk_every:
+            model = card["config"]
+            chunk_length = int(model["pred_horizon"]) - int(model["obs_horizon"]) + 1
+        episodes = [with_labels(e, chunk_length) for e in read_episodes(base)]
         for k in range(1, r + 1):
             for path in sorted((out / f"round-{k}" / "episodes").glob("seed-*.npz")):
                 episodes.append(RecordedEpisode.from_bytes(path.read_bytes()))
@@ -325,6 +367,8 @@ def run_dagger(
                 "label_queries": queries,
                 "label_failures": sum(int(x["label_failures"]) for x in results),
                 "labels_withheld": sum(int(x.get("labels_withheld", 0)) for x in results),
+                "chunk_queries": sum(int(x.get("chunk_queries", 0)) for x in results),
+                "chunk_failures": sum(int(x.get("chunk_failures", 0)) for x in results),
                 "labelled_steps": sum(int(x["steps"]) for x in results),
                 "dataset_episodes": len(episodes),
                 "validation": summary.get("checkpoint"),

@@ -9,7 +9,9 @@ is done, the arm holds still).
 
 Where an episode carries expert labels (``infos["expert_action"]``, written by a DART or
 DAgger collection), those are the targets; the executed ``actions`` are only what moved the
-simulator.
+simulator. Where a DAgger rollout carries chunk labels (``infos["expert_chunk"]``: the
+expert's own next actions from a step's state), its windows are those steps only, each
+with its chunk label after the executed actions before the step.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ import numpy as np
 
 from agents.learned.features import policy_input, slide_done
 from agents.learned.frames import arm_fingertip_poses, targets_in_frame, task_frames
-from slide_gym.datasets.recording import LABEL_KEY
+from slide_gym.datasets.recording import CHUNK_KEY, LABEL_KEY
 from slide_gym.envs.control import EE_ACTION_SIZE
 
 MIN_STD = 1e-2
@@ -31,7 +33,9 @@ MIN_STD = 1e-2
 @dataclass
 class Demonstrations:
     """Episodes as flat arrays: ``inputs`` (N, D) and ``labels`` (N, A), with ``starts`` and
-    ``lengths`` giving each episode's rows; ``seeds`` the episodes' reset seeds."""
+    ``lengths`` giving each episode's rows; ``seeds`` the episodes' reset seeds. ``chunks``:
+    per episode, its chunk labels (n, L, A) (NaN at steps without one; its ``labels`` are
+    then the executed actions) or None."""
 
     inputs: np.ndarray
     labels: np.ndarray
@@ -39,6 +43,7 @@ class Demonstrations:
     lengths: np.ndarray
     seeds: list[int]
     skipped: int
+    chunks: list[np.ndarray | None] | None = None
 
     @property
     def frames(self) -> int:
@@ -88,6 +93,7 @@ def load_demonstrations(
     episode_ids = list(range(dataset.total_episodes))
     metas = list(dataset.storage.get_episode_metadata(episode_ids))
     inputs, labels, lengths, seeds = [], [], [], []
+    chunk_labels: list[np.ndarray | None] = []
     skipped = 0
     for episode, meta in zip(dataset.iterate_episodes(episode_ids), metas, strict=True):
         labelled_rollout = int(meta.get("dagger_round", 0)) > 0  # its labels are the expert's
@@ -102,6 +108,14 @@ def load_demonstrations(
             raise ValueError("the dataset's observations must be a Dict (a slide-gym env's)")
         obs = {k: np.asarray(v)[:n] for k, v in episode.observations.items()}
         episode_targets = episode_labels(episode)
+        infos = episode.infos if isinstance(episode.infos, dict) else {}
+        chunk = None
+        if labelled_rollout and CHUNK_KEY in infos:
+            chunk = np.asarray(infos[CHUNK_KEY], np.float32)[1 : n + 1]
+            if np.isfinite(chunk).all(axis=(1, 2)).any():
+                episode_targets = np.asarray(episode.actions, np.float32)
+            else:
+                chunk = None  # no chunk was labelled: the per-step labels teach
         first = 0
         if after_slide:
             done = np.flatnonzero(slide_done(obs))
@@ -111,12 +125,14 @@ def load_demonstrations(
             first = int(done[0])
             obs = {k: v[first:] for k, v in obs.items()}
             episode_targets, n = episode_targets[first:], n - first
+            chunk = None if chunk is None else chunk[first:]
         if targets:
             episode_targets = _pose_targets(episode, obs, episode_targets, first)
         inputs.append(policy_input(obs, with_features, tip_axes))
         labels.append(episode_targets)
         lengths.append(n)
         seeds.append(int(meta.get("seed", -1)))
+        chunk_labels.append(chunk)
     if not lengths:
         raise ValueError(
             f"no episode to learn from: {skipped} of {dataset.total_episodes} were failures "
@@ -130,6 +146,7 @@ def load_demonstrations(
         lengths=lengths_arr,
         seeds=seeds,
         skipped=skipped,
+        chunks=chunk_labels if any(c is not None for c in chunk_labels) else None,
     )
 
 
@@ -184,7 +201,10 @@ class ChunkSampler:
     policy's chunk begins at its oldest observation, as in Chi et al. With
     ``representation="offsets"`` the arm entries are cumulative (see
     :data:`ACTION_REPRESENTATIONS`); steps before the episode count as no motion.
-    Windows that hold a dropped (NaN) label are left out and counted in ``dropped``.
+    Windows that hold a dropped (NaN) label are left out and counted in ``dropped``. An
+    episode with chunk labels (:attr:`Demonstrations.chunks`) gives a window only at its
+    labelled steps: the executed actions before the step, then the step's chunk label
+    (``"deltas"`` only).
     """
 
     def __init__(
@@ -201,7 +221,13 @@ class ChunkSampler:
             )
         arm = demos.labels.shape[1] - 1
         obs_rows, chunks = [], []
-        for start, n in zip(demos.starts, demos.lengths, strict=True):
+        labelled = demos.chunks or [None] * demos.episodes
+        if demos.chunks is not None and representation != "deltas":
+            raise ValueError(
+                f"chunk labels are per-step increments: train with --actions deltas, not "
+                f"{representation!r}"
+            )
+        for start, n, chunk_label in zip(demos.starts, demos.lengths, labelled, strict=True):
             labels = demos.labels[start : start + n]
             # steps -obs_horizon+1 .. n+pred_horizon-1: before the start no motion, the first
             # hand command; after the end no motion, the last hand command
@@ -215,6 +241,16 @@ class ChunkSampler:
             t = np.arange(n)
             rows = t[:, None] + np.arange(pred_horizon)  # window t's steps, as rows of `steps`
             chunk = steps[rows]
+            if chunk_label is not None:
+                ahead = pred_horizon - obs_horizon + 1
+                if chunk_label.shape[1] < ahead:
+                    raise ValueError(
+                        f"chunk labels of {chunk_label.shape[1]} steps cannot fill chunks of "
+                        f"{pred_horizon} with an observation horizon of {obs_horizon}"
+                    )
+                chunk[:, obs_horizon - 1 :] = chunk_label[:, :ahead]
+                keep = np.isfinite(chunk_label[:, :ahead]).all(axis=(1, 2))
+                chunk, t = chunk[keep], t[keep]
             if representation == "offsets":
                 cum = np.concatenate([np.zeros((1, arm), np.float32), np.cumsum(steps[:, :arm], 0)])
                 # offset of step s: sum of increments up to s minus those before step t

@@ -16,9 +16,18 @@ expert has failed. Labels of a failed expert are NaN until the next boundary.
 A fresh expert every chunk (the first design) planned a new press point each time and
 ramped up from rest, so the labels before contact pointed somewhere new every chunk and,
 followed alone, hovered over the plate without pressing.
+
+:meth:`PlanLabeler.chunk` labels a whole chunk at once: what the expert would do over the next
+steps from the learner's state if it acted itself. A copy of the expert runs them in a second
+env of the episode's scene put in the learner's state. Per-step labels along the learner's own
+motion are not such a chunk: the learner did not follow them, so a correction the expert would
+make once is repeated at every step after it.
 """
 
 from __future__ import annotations
+
+import copy
+from typing import Any
 
 import numpy as np
 
@@ -30,6 +39,20 @@ DRIFT_M = 0.03
 """m: a commanded fingertip this far from the plan's has left it."""
 PLATE_TOL_M = 0.005
 """m: a plate moved this far during the approach has left the plan."""
+
+
+class _Lent:
+    """An expert's planner lent to a copy of the expert: usable, but the copy cannot close it
+    (the original goes on planning with it)."""
+
+    def __init__(self, planner: Any):
+        self._planner = planner
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._planner, name)
+
+    def close(self) -> None:
+        pass
 
 
 def label_seed(episode_seed: int, step: int) -> int:
@@ -110,6 +133,43 @@ class PlanLabeler:
             self.reasons[why] = self.reasons.get(why, 0) + 1
             return None
         return np.asarray(action)
+
+    def chunk(
+        self, first: np.ndarray, branch: Any, state: np.ndarray, length: int
+    ) -> np.ndarray | None:
+        """(length, A): ``first`` (the label :meth:`label` just gave) and the actions a copy of
+        the expert takes after it when it acts itself, from ``state`` (the learner's, from
+        ``get_state()``) in ``branch`` (an unwrapped env of the episode's scene, reset with the
+        episode's seed and options). Once the branch's episode ends the arm holds still, as
+        a training window pads an episode's end. None if the expert has failed or fails on
+        the way. The expert itself, and the learner's env, are left as they were."""
+        slot = None if self.agent is None else self.agent.expert(0)
+        if slot is None or slot.phase == "failed":
+            return None
+        shared: dict[int, Any] = {id(slot.library): slot.library}
+        if slot.planner is not None:
+            shared[id(slot.planner)] = _Lent(slot.planner)
+        twin = copy.deepcopy(slot, memo=shared)
+        try:
+            twin.follow(first)
+            branch.set_state(state)
+            actions = [np.asarray(first, np.float32)]
+            obs, _, ended, _, _ = branch.step(first)
+            while len(actions) < length:
+                if ended:
+                    hold = np.zeros_like(actions[0])
+                    hold[-1] = actions[-1][-1]
+                    actions.append(hold)
+                    continue
+                action = twin.act(obs)
+                if twin.phase == "failed":
+                    return None
+                twin.follow(action)
+                actions.append(np.asarray(action, np.float32))
+                obs, _, ended, _, _ = branch.step(action)
+        finally:
+            twin.close()  # a planner of its own, if it planned anew; the lent one stays open
+        return np.stack(actions)
 
     def executed(self, action: np.ndarray) -> None:
         """The environment executed ``action``: the expert carries on from its command."""

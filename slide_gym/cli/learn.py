@@ -99,6 +99,7 @@ def _cmd_dagger(args: argparse.Namespace) -> int:
         seed=args.seed,
         max_steps=args.max_steps,
         skip_phases=tuple(args.skip_phases),
+        chunk_every=args.chunk_labels,
     )
     if args.env is not None:
         from agents.learned.policy import CARD_FILE, is_policy_dir
@@ -279,6 +280,15 @@ def add_parsers(sub: Any) -> None:
         default=[],
         metavar="PHASE",
         help="withhold the labels the expert gives in these phases (e.g. release)",
+    )
+    p.add_argument(
+        "--chunk-labels",
+        type=int,
+        default=0,
+        metavar="K",
+        help="every K steps, label the expert's own next chunk from the learner's state (run "
+        "in a second env); training then uses those windows of the rollouts only (0: per-step "
+        "labels)",
     )
     p.add_argument("--workers", type=int, metavar="W", help="parallel episodes (default: cores)")
     add_backend(p)

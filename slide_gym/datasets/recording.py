@@ -131,6 +131,10 @@ def reset_options(env: gym.Env, config: CollectConfig) -> dict[str, Any]:
 
 LABEL_KEY = "expert_action"
 """Step info of a DART collection: the expert's clean action of the step (zeros at reset)."""
+CHUNK_KEY = "expert_chunk"
+"""Step info of a DAgger rollout with chunk labels (``slide-gym dagger --chunk-labels K``):
+the expert's own next actions from that step's state, ``(L, A)`` per step (NaN where none
+was asked; zeros at reset)."""
 DART_STREAM = 0xDA27
 """Mixed with the episode's seed into the seed of its DART noise."""
 

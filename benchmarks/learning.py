@@ -105,6 +105,25 @@ def _ee_square_dagger(
     )
 
 
+STOP_DAGGER = ["--beta", "0", "--max-steps", "600"]
+"""DAgger on the square slide that stops at 3.5 cm: the learner executes every chunk, and a
+rollout is cut at 600 steps (the expert's 200 demonstrations take 111-429 steps, median 236)."""
+
+
+def _stop_dagger(name: str, dataset: str, extra: tuple = ()) -> Row:
+    """One DAgger round of 100 rollouts from ``dp-ee-square-slide-stop`` into ``dataset``."""
+    return Row(
+        name,
+        "dp-dagger",
+        SLIDE,
+        {**SQUARE, **EE},
+        f"slide-gym/{dataset}",
+        {},
+        ["--rounds", "1", "--episodes", "100", "--workers", "1", *STOP_DAGGER, *extra],
+        base="dp-ee-square-slide-stop",
+    )
+
+
 def _ee_square_seeds(
     name: str,
     train: list[str],
@@ -495,6 +514,22 @@ ROWS = {
             100,
             "dp-ee-square-slide-10k",
             extra=("--skip-phases", "release"),
+        ),
+        _stop_dagger(
+            "dp-dagger-chunks-ee-square-slide-stop",
+            "square-slide-ee-stop-dagger-chunks-v1",
+            ("--chunk-labels", "4"),
+        ),
+        _stop_dagger("dp-dagger-steps-ee-square-slide-stop", "square-slide-ee-stop-dagger-v1"),
+        Row(
+            "dp-ee-square-slide-stop-ft",
+            "dp",
+            SLIDE,
+            {**SQUARE, **EE},
+            "slide-gym/square-slide-ee-stop-v1",
+            {**SQUARE_SLIDE, "expert_params": {"stop_overhang": 0.035}},
+            ["--init", "{models}/dp-ee-square-slide-stop", "--iterations", "5000"]
+            + ["--val-every", "0"],
         ),
         Row("expert-ee-square-grasp", "expert", GRASP, {**SQUARE, **EE}),
         Row(

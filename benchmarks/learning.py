@@ -523,7 +523,7 @@ ROWS = {
         ),
         _stop_dagger(
             "dp-dagger-chunks-ee-square-slide-stop",
-            "square-slide-ee-stop-dagger-chunks-v1",
+            "square-slide-ee-stop-dagger-chunks-v2",
             ("--chunk-labels", "4"),
         ),
         _stop_dagger("dp-dagger-steps-ee-square-slide-stop", "square-slide-ee-stop-dagger-v1"),

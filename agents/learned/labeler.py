@@ -138,7 +138,8 @@ class PlanLabeler:
         self, first: np.ndarray, branch: Any, state: np.ndarray, length: int
     ) -> np.ndarray | None:
         """(length, A): ``first`` (the label :meth:`label` just gave) and the actions a copy of
-        the expert takes after it when it acts itself, from ``state`` (the learner's, from
+        the expert takes after it when it acts itself (at the plan's own pace, not re-timed),
+        from ``state`` (the learner's, from
         ``get_state()``) in ``branch`` (an unwrapped env of the episode's scene, reset with the
         episode's seed and options). Once the branch's episode ends the arm holds still, as
         a training window pads an episode's end. None if the expert has failed or fails on
@@ -152,6 +153,9 @@ class PlanLabeler:
         twin = copy.deepcopy(slot, memo=shared)
         try:
             twin.follow(first)
+            # from here the expert acts itself: the plan at its own pace, not re-timed to a
+            # learner (re-timed, it holds or crawls wherever its command lags a target)
+            twin.retimed = False
             branch.set_state(state)
             actions = [np.asarray(first, np.float32)]
             obs, _, ended, _, _ = branch.step(first)
@@ -164,7 +168,6 @@ class PlanLabeler:
                 action = twin.act(obs)
                 if twin.phase == "failed":
                     return None
-                twin.follow(action)
                 actions.append(np.asarray(action, np.float32))
                 obs, _, ended, _, _ = branch.step(action)
         finally:

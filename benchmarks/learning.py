@@ -110,23 +110,17 @@ STOP_DAGGER = ["--beta", "0", "--max-steps", "600"]
 rollout is cut at 600 steps (the expert's 200 demonstrations take 111-429 steps, median 236)."""
 
 
-def _stop_dagger(
-    name: str,
-    dataset: str,
-    extra: tuple = (),
-    base: str = "dp-ee-square-slide-stop",
-    scene: dict[str, Any] = SQUARE,
-) -> Row:
-    """One DAgger round of 100 rollouts from row ``base``'s policy into ``dataset``."""
+def _stop_dagger(name: str, dataset: str, extra: tuple = ()) -> Row:
+    """One DAgger round of 100 rollouts from ``dp-ee-square-slide-stop`` into ``dataset``."""
     return Row(
         name,
         "dp-dagger",
         SLIDE,
-        {**scene, **EE},
+        {**SQUARE, **EE},
         f"slide-gym/{dataset}",
         {},
         ["--rounds", "1", "--episodes", "100", "--workers", "1", *STOP_DAGGER, *extra],
-        base=base,
+        base="dp-ee-square-slide-stop",
     )
 
 
@@ -535,13 +529,6 @@ ROWS = {
             "slide-gym/catalog-slide-ee-stop-v1",
             {"episodes": 400, "only_success": True, "expert_params": {"stop_overhang": 0.035}},
             [*CPU_B256, "--iterations", "10000"],
-        ),
-        _stop_dagger(
-            "dp-dagger-chunks-ee-catalog-slide-stop",
-            "catalog-slide-ee-stop-dagger-chunks-v1",
-            ("--chunk-labels", "4"),
-            base="dp-ee-catalog-slide-stop-b256-10k",
-            scene=CATALOG,
         ),
         Row(
             "dp-ee-square-slide-stop-ft",

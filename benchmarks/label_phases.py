@@ -4,7 +4,10 @@ Runs learner-only rollouts (no expert control) of a trained policy on the square
 fingertip steps, labelled by :class:`agents.learned.labeler.PlanLabeler`, and prints per
 phase of the label expert how many steps it labelled, the share of labels at the step limit
 and the median largest arm entry (next to the learner's own actions), then how each fresh
-expert took over (its first event). ``--clock`` keeps the plan's clock (no re-timing).
+expert took over (its first event), and which table edge each one's plan slides the plate to
+(the edge its predicted slid pose overhangs): how many edges one rollout's labels aim at, and
+how often one takeover's edge differs from the one before. ``--clock`` keeps the plan's clock
+(no re-timing).
 
     OMP_NUM_THREADS=1 python benchmarks/label_phases.py models/dp-ee-square-slide-10k \
         --seeds 40000-40009
@@ -13,6 +16,7 @@ expert took over (its first event). ``--clock`` keeps the plan's clock (no re-ti
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import os
 from collections import Counter, defaultdict
@@ -40,7 +44,7 @@ def rollout(policy_dir: str, seed: int, retime: bool) -> dict:
     obs, info = env.reset(seed=seed)
     task = env.unwrapped.task
     labeler = PlanLabeler(config, seed, 10.0, task.object, task.table, retime=retime)
-    phases, labels, actions, takeovers = [], [], [], []
+    phases, labels, actions, takeovers, edges = [], [], [], [], []
     try:
         t, done = 0, False
         while not done:
@@ -53,6 +57,11 @@ def rollout(policy_dir: str, seed: int, retime: bool) -> dict:
                 if any(e.startswith("no slide on") for e in events):
                     what += ", no slide on found"
                 takeovers.append(what)
+                predicted = getattr(expert, "predicted", None)
+                if predicted is not None:
+                    edge = expert._overhang_at(np.asarray(predicted)).edge
+                    if edge is not None:
+                        edges.append(tuple(np.round(np.asarray(edge).ravel(), 3)))
             action, _ = policy.predict(obs, episode_start=np.array([t == 0]))
             labeler.executed(action)
             if label is not None and expert is not None:
@@ -73,6 +82,7 @@ def rollout(policy_dir: str, seed: int, retime: bool) -> dict:
         "labels": labels,
         "actions": actions,
         "takeovers": takeovers,
+        "edges": edges,
     }
 
 
@@ -105,7 +115,18 @@ def main() -> None:
     print("fresh experts took over by:")
     for what, n in Counter(t for r in runs for t in r["takeovers"]).most_common():
         print(f"  {n:4d} x {what}")
-    summary = {r["seed"]: {"success": r["success"], "steps": r["steps"]} for r in runs}
+    distinct = [len(set(r["edges"])) for r in runs]
+    switches = sum(sum(a != b for a, b in itertools.pairwise(r["edges"])) for r in runs)
+    pairs = sum(max(0, len(r["edges"]) - 1) for r in runs)
+    print(
+        f"goal edges of the planned takeovers: {sum(len(r['edges']) for r in runs)} plans; "
+        f"edges per rollout {distinct}; a takeover's edge differs from the one before in "
+        f"{switches} of {pairs}"
+    )
+    summary = {
+        r["seed"]: {"success": r["success"], "steps": r["steps"], "edges": len(set(r["edges"]))}
+        for r in runs
+    }
     print(json.dumps(summary))
 
 

@@ -41,6 +41,7 @@ import gymnasium as gym
 import numpy as np
 
 from agents.expert import PHASES
+from agents.learned.data import chunk_label_length
 from agents.learned.labeler import PlanLabeler
 from agents.learned.policy import FIRST_FILE, DiffusionPolicy, is_policy_dir
 from slide_gym.datasets.config import CollectConfig, check_dataset_id
@@ -123,7 +124,7 @@ def rollout_case(case: dict[str, Any]) -> dict[str, Any]:
     policy = DiffusionPolicy.load(case["policy"], seed=seed)
     horizon = policy.config.action_horizon
     chunk_every = int(case.get("chunk_every", 0))
-    chunk_length = policy.config.pred_horizon - policy.config.obs_horizon + 1
+    chunk_length = chunk_label_length(policy.config.obs_horizon, policy.config.pred_horizon)
     rng = np.random.default_rng([seed, round_, case["dagger_seed"]])
     env = gym.make(config.env_id, **config.env_kwargs())
     base = env.unwrapped
@@ -166,8 +167,7 @@ def rollout_case(case: dict[str, Any]) -> dict[str, Any]:
                     chunk = labeler.chunk(label, branch, base.get_state(), chunk_length)
                     chunk_queries += 1
                     chunk_failures += chunk is None
-                blank = np.full((chunk_length, len(learner)), np.nan, np.float32)
-                chunks.append(blank if chunk is None else chunk)
+                chunks.append(chunk)
             obs, reward, term, trunc, info = env.step(action)
             steps.append((np.asarray(action, np.float32), float(reward), term, trunc))
             observations.append(obs)
@@ -185,8 +185,10 @@ def rollout_case(case: dict[str, Any]) -> dict[str, Any]:
     actions = np.stack([s[0] for s in steps])
     stacked = stack_infos(infos)
     stacked[LABEL_KEY] = np.concatenate([np.zeros_like(actions[:1]), np.stack(labels)])
-    if chunks:
-        stacked[CHUNK_KEY] = np.concatenate([np.zeros_like(chunks[0])[None], np.stack(chunks)])
+    if branch is not None:
+        blank = np.full((chunk_length, actions.shape[1]), np.nan, np.float32)
+        rows = [np.zeros_like(blank)] + [blank if c is None else c for c in chunks]
+        stacked[CHUNK_KEY] = np.stack(rows)
     success = bool(info["is_success"])
     record = {
         "success": success,
@@ -312,10 +314,12 @@ def run_dagger(
             store=store,
             success_key="success",
         )
-        chunk_length = 0
-        if config.chunk_every:
-            model = card["config"]
-            chunk_length = int(model["pred_horizon"]) - int(model["obs_horizon"]) + 1
+        model = card["config"]
+        chunk_length = (
+            chunk_label_length(model["obs_horizon"], model["pred_horizon"])
+            if config.chunk_every
+            else 0
+        )
         episodes = [with_labels(e, chunk_length) for e in read_episodes(base)]
         for k in range(1, r + 1):
             for path in sorted((out / f"round-{k}" / "episodes").glob("seed-*.npz")):

@@ -172,6 +172,12 @@ def _pose_targets(
     return np.column_stack([poses, labels[:, -1:]]).astype(np.float32)
 
 
+def chunk_label_length(obs_horizon: int, pred_horizon: int) -> int:
+    """Steps a chunk label holds: the part of a chunk predicted from its step on (the entries
+    before it are actions already executed)."""
+    return int(pred_horizon) - int(obs_horizon) + 1
+
+
 ACTION_REPRESENTATIONS = ("offsets", "deltas", "targets")
 """How a chunk holds the arm part of its actions: ``"offsets"`` (each step's target relative
 to the target before the window's current step, the running sum of the increments: a short
@@ -242,7 +248,7 @@ class ChunkSampler:
             rows = t[:, None] + np.arange(pred_horizon)  # window t's steps, as rows of `steps`
             chunk = steps[rows]
             if chunk_label is not None:
-                ahead = pred_horizon - obs_horizon + 1
+                ahead = chunk_label_length(obs_horizon, pred_horizon)
                 if chunk_label.shape[1] < ahead:
                     raise ValueError(
                         f"chunk labels of {chunk_label.shape[1]} steps cannot fill chunks of "

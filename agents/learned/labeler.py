@@ -139,11 +139,11 @@ class PlanLabeler:
     ) -> np.ndarray | None:
         """(length, A): ``first`` (the label :meth:`label` just gave) and the actions a copy of
         the expert takes after it when it acts itself (at the plan's own pace, not re-timed),
-        from ``state`` (the learner's, from
-        ``get_state()``) in ``branch`` (an unwrapped env of the episode's scene, reset with the
-        episode's seed and options). Once the branch's episode ends the arm holds still, as
-        a training window pads an episode's end. None if the expert has failed or fails on
-        the way. The expert itself, and the learner's env, are left as they were."""
+        from ``state`` (the learner's, from ``get_state()``) in ``branch`` (an unwrapped env
+        of the episode's scene, reset with the episode's seed and options). Once the branch's
+        episode ends the arm holds still, as a training window pads an episode's end. None if
+        the expert has failed or fails on the way. The expert itself, and the learner's env,
+        are left as they were."""
         slot = None if self.agent is None else self.agent.expert(0)
         if slot is None or slot.phase == "failed":
             return None

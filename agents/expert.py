@@ -19,12 +19,12 @@ fingertip is pressed, :class:`~agents.tracking.ContactTracker` corrects the plan
 The expert takes over from any state, not only from an episode's start (what DAgger needs
 of it): from its first observation it reads where things are. A plate in the closed hand is
 lifted and held. A fingertip pressed on a plate not yet graspable slides on: a slide planned
-from the pressed arm (the planner's fixed start, :mod:`agents.takeover`) is queued, and what
-follows a slide follows; on a plate already graspable it lifts off as after a slide and
-grasps it as it lies. A fingertip low near the table, or pressed where no slide on is found,
-first rises (``release``). A plate already graspable gets its grasp at once; a plate partly
-over the edge is planned from where it lies (as a replan is); anything else is planned as at
-the start.
+from the pressed arm (the planner's fixed start, :mod:`agents.takeover`), else a straight drag
+toward the nearest edge, is queued, and what follows a slide follows; on a plate already
+graspable it lifts off as after a slide and grasps it as it lies. A fingertip low near the
+table, or pressed where no slide on is found, first rises (``release``). A plate already
+graspable gets its grasp at once; a plate partly over the edge is planned from where it lies
+(as a replan is); anything else is planned as at the start.
 
 Same seed, same episode, on any machine: every planning step is capped by a count
 (``ExpertParams.strict_plan_iterations``, ``grasp_iterations``, ``route_iterations``); the
@@ -55,7 +55,7 @@ from agents.params import (
 )
 from agents.record import ExpertReport
 from agents.scene import SceneLibrary
-from agents.takeover import lift_off_pressed, slide_on
+from agents.takeover import lift_off_pressed, slide_on, slide_straight_on
 from agents.tracking import ContactTracker, cartesian_line, rise
 from agents.trajectory import Segment, time_segment
 from slide_gym.geometry import (
@@ -422,6 +422,12 @@ class SlideGraspExpert:
                 n = len(self.report.events)
                 what, done = ("lift off", "lifted it off") if graspable else ("slide on", "slid on")
                 why = lift_off_pressed(self, obs) if graspable else slide_on(self, obs)
+                if why is not None and not graspable:
+                    straight = slide_straight_on(self, obs)
+                    if straight is None:
+                        self.report.events.append(f"no planned slide on ({why})")
+                        done = "slid straight on"
+                    why = None if straight is None else f"{why}; straight: {straight}"
                 if why is None:
                     self.report.events.insert(n, f"took over with the fingertip {where}: {done}")
                     return True

@@ -138,16 +138,44 @@ def test_slide_on_is_deterministic(episode):
     np.testing.assert_array_equal(a, b)
 
 
-def test_pressed_off_the_manifold_it_raises(episode):
-    """An arm whose wrist is tilted away from the sliding constraints cannot start a slide:
-    the expert raises the fingertip as before."""
+def _tilted(obs: dict) -> dict:
+    """``obs`` with the wrist tilted 0.4 rad away from the sliding constraints."""
+    tilt = np.array([0, 0, 0, 0, 0, 0.4, 0], dtype=np.float32)
+    return {**obs, "arm_qpos": obs["arm_qpos"] + tilt}
+
+
+def test_pressed_off_the_manifold_it_slides_straight_on(episode):
+    """An arm whose wrist is tilted away from the sliding constraints cannot start a planned
+    slide; with the plate part over the edge, the fingertip drags it straight on instead."""
     actions, infos, phases = episode
-    obs = _state(actions, _mid_slide(infos, phases, "over"))
-    obs["arm_qpos"] = obs["arm_qpos"] + np.array([0, 0, 0, 0, 0, 0.4, 0], dtype=np.float32)
+    obs = _tilted(_state(actions, _mid_slide(infos, phases, "over")))
+    _, events = _first_actions(obs, 1)
+    assert events[0] == "took over with the fingertip on the plate: slid straight on"
+    assert events[1].startswith("no planned slide on (") and "start configuration" in events[1]
+
+
+def test_pressed_where_no_slide_on_is_found_it_raises(episode):
+    """Early in the slide the tilted wrist's straight drag would hit the table: it rises."""
+    actions, infos, phases = episode
+    obs = _tilted(_state(actions, _mid_slide(infos, phases, "early")))
     _, events = _first_actions(obs, 1)
     assert events[0].startswith("no slide on from here (")
-    assert "start configuration" in events[0]
+    assert "straight: the straight drag would collide" in events[0]
     assert events[-1] == "took over with the fingertip on the plate: raised it"
+
+
+@pytest.mark.parametrize("which", ["early", "over"])
+def test_without_a_planned_slide_on_the_straight_one_succeeds(episode, which, monkeypatch):
+    """The straight slide on alone (the planner's slide on refused) finishes the slide."""
+    monkeypatch.setattr("agents.expert.slide_on", lambda expert, obs: "refused by the test")
+    actions, infos, phases = episode
+    k = _mid_slide(infos, phases, which)
+    info, events, failure = _take_over("SlideGym/TopSlide-v0", actions, k)
+    assert failure is None and info["is_success"], events
+    assert events[:2] == [
+        "took over with the fingertip on the plate: slid straight on",
+        "no planned slide on (refused by the test)",
+    ]
 
 
 def test_pressed_on_a_graspable_plate_it_lifts_off_and_grasps(episode):

@@ -521,6 +521,11 @@ ROWS = {
             ("--chunk-labels", "4"),
         ),
         _stop_dagger("dp-dagger-steps-ee-square-slide-stop", "square-slide-ee-stop-dagger-v1"),
+        _stop_dagger(  # the label expert slides a pressed plate straight on (agents.takeover)
+            "dp-dagger-straight-ee-square-slide-stop",
+            "square-slide-ee-stop-dagger-straight-v1",
+            ("--chunk-labels", "4"),
+        ),
         Row(
             "dp-ee-catalog-slide-stop-b256-10k",
             "dp",

@@ -420,17 +420,14 @@ class SlideGraspExpert:
             where = "on the plate" if on_plate else "low over the table"
             if on_plate:
                 n = len(self.report.events)
-                what, done = ("lift off", "lifted it off") if graspable else ("slide on", "slid on")
-                why = lift_off_pressed(self, obs) if graspable else slide_on(self, obs)
-                if why is not None and not graspable:
-                    straight = slide_straight_on(self, obs)
-                    if straight is None:
-                        self.report.events.append(f"no planned slide on ({why})")
-                        done = "slid straight on"
-                    why = None if straight is None else f"{why}; straight: {straight}"
+                if graspable:
+                    why, done = lift_off_pressed(self, obs), "lifted it off"
+                else:
+                    why, done = self._slide_on(obs)
                 if why is None:
                     self.report.events.insert(n, f"took over with the fingertip {where}: {done}")
                     return True
+                what = "lift off" if graspable else "slide on"
                 self.report.events.append(f"no {what} from here ({why})")
             h = p.lift_off_height
             line = rise(self.tip, self.q_cmd, (h, h / 2, h / 4), True, self.rng)
@@ -444,6 +441,25 @@ class SlideGraspExpert:
             self.report.events.append("took over with the plate graspable: grasping it")
             return self._grasp_as_it_lies(pose)
         return False
+
+    def _slide_on(self, obs: dict[str, np.ndarray]) -> tuple[str | None, str]:
+        """Queue a slide on from the pressed fingertip, planned or straight, in the order
+        ``ExpertParams.straight_slide_on`` says; ``(None, what it did)`` if one was queued
+        (the other's failure, if tried first, noted), else ``(why neither, "")``."""
+        tries = [
+            ("planned", "slid on", slide_on),
+            ("straight", "slid straight on", slide_straight_on),
+        ]
+        if self.params.straight_slide_on:
+            tries.reverse()
+        failed: list[str] = []
+        for kind, done, queue in tries:
+            why = queue(self, obs)
+            if why is None:
+                self.report.events.extend(f"no {f}" for f in failed)
+                return None, done
+            failed.append(f"{kind} slide on ({why})")
+        return "; ".join(failed), ""
 
     def _grasp_as_it_lies(self, pose: np.ndarray) -> bool:
         """Re-aim a grasp at a graspable plate that nothing planned; False (plan instead) if

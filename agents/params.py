@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -115,6 +116,13 @@ class ExpertParams:
     follows the plan to its end, whose overhang the planner samples anywhere from u* to
     several centimetres beyond it. A fixed stop makes the moment a slide ends a function of
     what a learner observes (the overhang), not of a plan it cannot see.
+
+    ``straight_slide_on`` (bool; ``1``/``0`` on the command line): taking over a fingertip
+    pressed on a plate not yet graspable, drag it straight on toward the edge that needs the
+    shortest drag (:func:`agents.takeover.slide_straight_on`) before trying a planned slide
+    on; False tries the planned one first. A planned slide on may aim at any edge, so two
+    takeovers a few steps apart can disagree; the straight one aims where the state says,
+    which DAgger's labels need.
     """
 
     approach_speed: float = 1.0  # rad/s, free-space joint speed
@@ -148,11 +156,15 @@ class ExpertParams:
     pinch_u_star: float = 0.0175  # m, least overhang measured to pinch and lift (small plates)
     grasp_posture: tuple[float, ...] | None = GRASP_POSTURE
     stop_overhang: float | None = None
+    straight_slide_on: bool = False
 
     def __post_init__(self) -> None:
         for name, value in dataclasses.asdict(self).items():
             if name == "grasp_posture":
                 _check_posture(value)
+            elif name == "straight_slide_on":
+                if not isinstance(value, bool):
+                    raise ValueError(f"straight_slide_on must be True or False (1 or 0): {value!r}")
             elif name == "stop_overhang" and value is None:
                 continue
             elif name in _COUNTS:
@@ -171,14 +183,18 @@ def expert_params(values: dict[str, float | None]) -> ExpertParams:
     if unknown:
         raise ValueError(f"unknown expert parameters {unknown}; allowed: {', '.join(fields)}")
     defaults = ExpertParams()
-    # the caps that count work are integers: NAME=3 arrives as 3.0
-    counted = {
-        k: int(v)
-        if isinstance(getattr(defaults, k), int) and isinstance(v, float) and v.is_integer()
-        else v
-        for k, v in values.items()
-    }
+    counted = {k: _as_field_type(getattr(defaults, k), v) for k, v in values.items()}
     return dataclasses.replace(defaults, **counted)
+
+
+def _as_field_type(default: Any, value: Any) -> Any:
+    """A number from the command line as its field's type: the caps that count work are
+    integers (``NAME=3`` arrives as 3.0), a switch is 1 or 0."""
+    if isinstance(default, bool):
+        return bool(value) if value in (0, 1) else value
+    if isinstance(default, int) and isinstance(value, float) and value.is_integer():
+        return int(value)
+    return value
 
 
 def _check_posture(value: tuple[float, ...] | None) -> None:

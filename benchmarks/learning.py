@@ -526,6 +526,11 @@ ROWS = {
             "square-slide-ee-stop-dagger-straight-v1",
             ("--chunk-labels", "4"),
         ),
+        _stop_dagger(  # ... and tries that before a planned slide on
+            "dp-dagger-straight-first-ee-square-slide-stop",
+            "square-slide-ee-stop-dagger-straight-first-v1",
+            ("--chunk-labels", "4", "--expert-param", "straight_slide_on=1"),
+        ),
         Row(
             "dp-ee-catalog-slide-stop-b256-10k",
             "dp",

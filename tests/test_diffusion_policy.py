@@ -446,6 +446,11 @@ def test_a_dagger_round_of_a_grasp_skill_keeps_its_slide_skill(
             "--chunk-labels must be a whole number >= 0",
         ),
         (
+            ["dagger", "--policy", "{empty}", "--expert-param", "straight_slide_on=2"]
+            + ["--out", "d", "--dataset-id", "tt/d-v0"],
+            "straight_slide_on must be True or False",
+        ),
+        (
             [
                 "dagger",
                 "--policy",

@@ -12,6 +12,7 @@ from agents.params import (
     THIN_PLATE,
     THIN_PLATE_MAX_ROTATION,
     ExpertParams,
+    expert_params,
     is_small_plate,
     plate_grasp_u_star,
     plate_slide_params,
@@ -99,6 +100,16 @@ def test_stop_overhang_is_off_by_default_and_checked() -> None:
     for bad in (0.0, -0.01, float("nan"), float("inf")):
         with pytest.raises(ValueError, match="stop_overhang"):
             ExpertParams(stop_overhang=bad)
+
+
+def test_straight_slide_on_is_a_switch_off_by_default() -> None:
+    """The command line hands 1 or 0 (``--expert-param straight_slide_on=1``)."""
+    assert ExpertParams().straight_slide_on is False
+    assert expert_params({"straight_slide_on": 1.0}).straight_slide_on is True
+    assert expert_params({"straight_slide_on": 0.0}).straight_slide_on is False
+    assert expert_params({"max_replans": 3.0}).max_replans == 3  # counts stay integers
+    with pytest.raises(ValueError, match="straight_slide_on must be True or False"):
+        expert_params({"straight_slide_on": 0.5})
 
 
 def test_a_slide_with_a_stop_overhang_ends_early_and_still_succeeds() -> None:

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import slide_gym  # noqa: F401 - registers the environments
+from agents.params import ExpertParams
 from agents.planner_agent import PlannerAgent
 
 pytestmark = pytest.mark.slow
@@ -107,10 +108,12 @@ def test_mid_slide_it_slides_on(episode, env_id, which):
     assert not any("raised" in e for e in events)
 
 
-def _first_actions(obs: dict, n: int = 40) -> tuple[np.ndarray, list[str]]:
+def _first_actions(
+    obs: dict, n: int = 40, params: ExpertParams | None = None
+) -> tuple[np.ndarray, list[str]]:
     """A fresh expert's first ``n`` actions for the same observation (no env: its plan and
     open-loop targets only), and its events."""
-    agent = PlannerAgent("regions", 60.0, seed=SEED)
+    agent = PlannerAgent("regions", 60.0, seed=SEED, params=params)
     try:
         acts = [agent.predict(obs, episode_start=np.array([t == 0]))[0] for t in range(n)]
         return np.stack(acts), list(agent.expert(0).report.events)
@@ -160,8 +163,20 @@ def test_pressed_where_no_slide_on_is_found_it_raises(episode):
     obs = _tilted(_state(actions, _mid_slide(infos, phases, "early")))
     _, events = _first_actions(obs, 1)
     assert events[0].startswith("no slide on from here (")
-    assert "straight: the straight drag would collide" in events[0]
+    assert "straight slide on (the straight drag would collide)" in events[0]
     assert events[-1] == "took over with the fingertip on the plate: raised it"
+
+
+def test_straight_slide_on_first_when_asked(episode):
+    """``straight_slide_on``: the straight drag comes first (no planned slide is tried), the
+    same for the same state."""
+    actions, infos, phases = episode
+    obs = _state(actions, _mid_slide(infos, phases, "over"))
+    params = ExpertParams(straight_slide_on=True)
+    a, events = _first_actions(obs, 40, params)
+    assert events == ["took over with the fingertip on the plate: slid straight on"]
+    b, _ = _first_actions(obs, 40, params)
+    np.testing.assert_array_equal(a, b)
 
 
 @pytest.mark.parametrize("which", ["early", "over"])

@@ -30,6 +30,7 @@ demonstrations and rollouts alike.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import time
@@ -44,7 +45,7 @@ from agents.expert import PHASES
 from agents.learned.data import chunk_label_length
 from agents.learned.labeler import PlanLabeler
 from agents.learned.policy import FIRST_FILE, DiffusionPolicy, is_policy_dir
-from slide_gym.datasets.config import CollectConfig, check_dataset_id
+from slide_gym.datasets.config import CollectConfig, check_dataset_id, check_expert_params
 from slide_gym.datasets.recording import (
     CHUNK_KEY,
     LABEL_KEY,
@@ -73,6 +74,8 @@ class DaggerConfig:
             (NaN; the expert still acts in them when it executes a chunk).
         chunk_every: every this many steps, label the expert's whole chunk from the
             learner's state (0: per-step labels only).
+        expert_params: overrides of the labelling expert's execution settings
+            (:class:`agents.params.ExpertParams`) on top of the base dataset's.
     """
 
     rounds: int = 2
@@ -85,6 +88,7 @@ class DaggerConfig:
     max_steps: int | None = None
     skip_phases: tuple[str, ...] = ()
     chunk_every: int = 0
+    expert_params: dict[str, float] | None = None
 
     def __post_init__(self) -> None:
         unknown = sorted(set(self.skip_phases) - set(PHASES))
@@ -99,6 +103,8 @@ class DaggerConfig:
             or self.max_steps < 1
         ):
             raise ValueError(f"--max-steps must be a whole number >= 1, got {self.max_steps!r}")
+        if self.expert_params is not None:
+            object.__setattr__(self, "expert_params", check_expert_params(self.expert_params))
         every = self.chunk_every
         if isinstance(every, bool) or not isinstance(every, int) or every < 0:
             raise ValueError(f"--chunk-labels must be a whole number >= 0, got {every!r}")
@@ -273,6 +279,9 @@ def run_dagger(
         raise ValueError(f"--dataset-id must differ from the policy's dataset {base_id!r}")
     base = load(base_id)
     collect = CollectConfig.from_json(base.storage.metadata["slide_gym"]["config"])
+    if config.expert_params:
+        merged = {**(collect.expert_params or {}), **config.expert_params}
+        collect = dataclasses.replace(collect, expert_params=merged)
     out = Path(out)
     current, rows = Path(policy_dir), []
     for r in range(1, config.rounds + 1):

@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from slide_gym.cli.args import add_backend, add_command, add_only_success
+from slide_gym.cli.args import add_backend, add_command, add_only_success, parse_assignments
 from slide_gym.splits import DAGGER_SEED, TEST_SEED, VALIDATION_SEED
 
 
@@ -100,6 +100,7 @@ def _cmd_dagger(args: argparse.Namespace) -> int:
         max_steps=args.max_steps,
         skip_phases=tuple(args.skip_phases),
         chunk_every=args.chunk_labels,
+        expert_params=parse_assignments(args.expert_param, "--expert-param"),
     )
     if args.env is not None:
         from agents.learned.policy import CARD_FILE, is_policy_dir
@@ -289,6 +290,14 @@ def add_parsers(sub: Any) -> None:
         help="every K steps, label the expert's own next chunk from the learner's state (run "
         "in a second env); training then uses those windows of the rollouts only (0: per-step "
         "labels)",
+    )
+    p.add_argument(
+        "--expert-param",
+        action="append",
+        metavar="NAME=VALUE",
+        help="override one of the labelling expert's execution settings "
+        "(agents.params.ExpertParams) on top of the dataset's, e.g. straight_slide_on=1; "
+        "repeatable",
     )
     p.add_argument("--workers", type=int, metavar="W", help="parallel episodes (default: cores)")
     add_backend(p)

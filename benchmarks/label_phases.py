@@ -7,10 +7,11 @@ and the median largest arm entry (next to the learner's own actions), then how e
 expert took over (its first event), and which table edge each one's plan slides the plate to
 (the edge its predicted slid pose overhangs): how many edges one rollout's labels aim at, and
 how often one takeover's edge differs from the one before. ``--clock`` keeps the plan's clock
-(no re-timing).
+(no re-timing); ``--expert-param NAME=VALUE`` sets the labelling expert's settings (as
+``slide-gym dagger`` takes them from the dataset and its own ``--expert-param``).
 
-    OMP_NUM_THREADS=1 python benchmarks/label_phases.py models/dp-ee-square-slide-10k \
-        --seeds 40000-40009
+    OMP_NUM_THREADS=1 python benchmarks/label_phases.py models/dp-ee-square-slide-stop \
+        --seeds 40000-40009 --expert-param stop_overhang=0.035
 """
 
 from __future__ import annotations
@@ -26,7 +27,9 @@ import numpy as np
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 
-def rollout(policy_dir: str, seed: int, retime: bool) -> dict:
+def rollout(
+    policy_dir: str, seed: int, retime: bool, expert: dict[str, float] | None = None
+) -> dict:
     """One learner episode: per step the label expert's phase, the label and the action."""
     import gymnasium as gym
 
@@ -36,7 +39,11 @@ def rollout(policy_dir: str, seed: int, retime: bool) -> dict:
     from slide_gym.datasets.config import CollectConfig
 
     config = CollectConfig(
-        env_id="SlideGym/TopSlide-v0", object="square", table="square", control_mode="ee_delta"
+        env_id="SlideGym/TopSlide-v0",
+        object="square",
+        table="square",
+        control_mode="ee_delta",
+        expert_params=expert,
     )
     policy = DiffusionPolicy.load(policy_dir, seed=seed)
     horizon = policy.config.action_horizon
@@ -95,9 +102,18 @@ def main() -> None:
     parser.add_argument("policy", help="a train-dp policy folder (the learner)")
     parser.add_argument("--seeds", default="40000-40009", help="reset seeds FIRST-LAST")
     parser.add_argument("--clock", action="store_true", help="keep the plan's clock")
+    parser.add_argument(
+        "--expert-param",
+        action="append",
+        metavar="NAME=VALUE",
+        help="the labelling expert's settings, e.g. stop_overhang=0.035 (repeatable)",
+    )
     args = parser.parse_args()
+    from slide_gym.cli.args import parse_assignments
+
+    expert = parse_assignments(args.expert_param, "--expert-param")
     first, last = (int(s) for s in args.seeds.split("-"))
-    runs = [rollout(args.policy, seed, not args.clock) for seed in range(first, last + 1)]
+    runs = [rollout(args.policy, s, not args.clock, expert) for s in range(first, last + 1)]
     wins = sum(r["success"] for r in runs)
     print(f"{wins} of {len(runs)} learner episodes succeeded; labels per phase of the expert:")
     by_phase: dict[str, list[int]] = defaultdict(list)

@@ -21,8 +21,10 @@ of it): from its first observation it reads where things are. A plate in the clo
 lifted and held. A fingertip pressed on a plate not yet graspable slides on: a slide planned
 from the pressed arm (the planner's fixed start, :mod:`agents.takeover`), else a straight drag
 toward the nearest edge, is queued, and what follows a slide follows; on a plate already
-graspable it lifts off as after a slide and grasps it as it lies. A fingertip low near the
-table, or pressed where no slide on is found, first rises (``release``). A plate already
+graspable it lifts off as after a slide and grasps it as it lies. A fingertip pressed where
+no slide on is found, or low near a graspable plate, first rises (``release``); one low beside
+a plate not yet graspable is planned for from where it is (the approach rises straight up to
+the height above the press point, then moves across). A plate already
 graspable gets its grasp at once; a plate partly over the edge is planned from where it lies
 (as a replan is); anything else is planned as at the start.
 
@@ -418,6 +420,9 @@ class SlideGraspExpert:
         if tip[2] - float(obs["table_height"][0]) < LOW_TIP_HEIGHT:
             on_plate = placed.buffer(0.01).contains(shapely.Point(tip[0], tip[1]))
             where = "on the plate" if on_plate else "low over the table"
+            if not on_plate and not graspable:  # the approach rises from here first
+                self.report.events.append(f"took over with the fingertip {where}: planning")
+                return False
             if on_plate:
                 n = len(self.report.events)
                 if graspable:
@@ -559,9 +564,10 @@ class SlideGraspExpert:
         high = self.tip.forward(q_pre)
         high[2, 3] += APPROACH_RAISES[0]
         q_high = self._ik(self.tip, high, q_pre)
-        routes = [[self.q_cmd, q_pre]] + (
-            [[self.q_cmd, q_high, q_pre]] if q_high is not None else []
-        )
+        q_up = self._up_to(q_pre)
+        routes = [[self.q_cmd, q_pre]] + [
+            [self.q_cmd, q, q_pre] for q in (q_up, q_high) if q is not None
+        ]
         route = next((r for r in routes if planner.route_free(r, pose)), None)
         if route is None:
             route, why = self._other_approach(q_pre, pose)
@@ -575,6 +581,18 @@ class SlideGraspExpert:
         self._push(press, self.tip, track=True)
         self.queue_slide(q_s, path, pose)
         return None
+
+    def _up_to(self, q_pre: np.ndarray) -> np.ndarray | None:
+        """The arm with the fingertip straight above where it is, at the height of ``q_pre``'s
+        fingertip; None where it already is that high (as at an episode's start) or no IK
+        solution. A fingertip taken over low beside the plate rises this far before it moves
+        across, instead of moving diagonally through the plate's edge."""
+        assert self.q_cmd is not None
+        here, there = self.tip.forward(np.stack([self.q_cmd, q_pre]))
+        if here[2, 3] >= there[2, 3] - 1e-3:
+            return None
+        here[2, 3] = there[2, 3]
+        return self._ik(self.tip, here, self.q_cmd)
 
     def queue_slide(self, q_s: np.ndarray, path: np.ndarray, pose: np.ndarray) -> None:
         """Queue the planned slide ``path`` (tracked, each step with the plate's Eq. 2 xy for

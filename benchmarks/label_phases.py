@@ -51,7 +51,8 @@ def rollout(
     obs, info = env.reset(seed=seed)
     task = env.unwrapped.task
     labeler = PlanLabeler(config, seed, 10.0, task.object, task.table, retime=retime)
-    phases, labels, actions, takeovers, edges = [], [], [], [], []
+    phases, labels, actions, takeovers, edges, low = [], [], [], [], [], []
+    start_xy = np.asarray(obs["object_pose"][:2], dtype=float)
     try:
         t, done = 0, False
         while not done:
@@ -64,6 +65,8 @@ def rollout(
                 if any(e.startswith("no slide on") for e in events):
                     what += ", no slide on found"
                 takeovers.append(what)
+                if "low over the table" in what:
+                    low.append(_where(expert, obs, t, start_xy))
                 predicted = getattr(expert, "predicted", None)
                 if predicted is not None:
                     edge = expert._overhang_at(np.asarray(predicted)).edge
@@ -90,7 +93,23 @@ def rollout(
         "actions": actions,
         "takeovers": takeovers,
         "edges": edges,
+        "low": low,
     }
+
+
+def _where(expert, obs: dict, t: int, start_xy: np.ndarray) -> tuple[int, float, float, float]:
+    """A low takeover's step, the fingertip's height over the table and distance from the
+    plate's outline, and how far the plate has moved since the reset (all in m)."""
+    import shapely
+
+    from slide_gym.geometry import transform_polygon
+
+    pose = expert._object_pose(obs)
+    plate = transform_polygon(expert.obj.polygon, *pose)
+    tip = np.asarray(obs["fingertip_pose"][:3], dtype=float)
+    height = float(tip[2] - obs["table_height"][0])
+    gap = float(plate.exterior.distance(shapely.Point(tip[0], tip[1])))
+    return t, height, gap, float(np.linalg.norm(pose[:2] - start_xy))
 
 
 def _largest(actions: list[np.ndarray]) -> np.ndarray:
@@ -131,6 +150,16 @@ def main() -> None:
     print("fresh experts took over by:")
     for what, n in Counter(t for r in runs for t in r["takeovers"]).most_common():
         print(f"  {n:4d} x {what}")
+    low = np.array([w for r in runs for w in r["low"]]).reshape(-1, 4)
+    if len(low):
+        q = np.percentile(low, [10, 50, 90], axis=0)
+        print(
+            f"the {len(low)} low takeovers (10th/50th/90th percentile): step "
+            f"{q[:, 0].round().astype(int).tolist()}, fingertip height "
+            f"{(100 * q[:, 1]).round(1).tolist()} cm, off the plate's outline "
+            f"{(100 * q[:, 2]).round(1).tolist()} cm, plate moved "
+            f"{(100 * q[:, 3]).round(1).tolist()} cm"
+        )
     distinct = [len(set(r["edges"])) for r in runs]
     switches = sum(sum(a != b for a, b in itertools.pairwise(r["edges"])) for r in runs)
     pairs = sum(max(0, len(r["edges"]) - 1) for r in runs)

@@ -531,6 +531,11 @@ ROWS = {
             "square-slide-ee-stop-dagger-straight-first-v1",
             ("--chunk-labels", "4", "--expert-param", "straight_slide_on=1"),
         ),
+        _stop_dagger(  # ... and approaches from a fingertip low beside the plate (no raise)
+            "dp-dagger-approach-ee-square-slide-stop",
+            "square-slide-ee-stop-dagger-approach-v1",
+            ("--chunk-labels", "4"),
+        ),
         Row(
             "dp-ee-catalog-slide-stop-b256-10k",
             "dp",

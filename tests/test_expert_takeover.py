@@ -11,6 +11,8 @@ import pytest
 import slide_gym  # noqa: F401 - registers the environments
 from agents.params import ExpertParams
 from agents.planner_agent import PlannerAgent
+from slide_gym.planning.ik import IKTarget, solve_ik
+from slide_gym.robot.kinematics import fingertip_chain
 
 pytestmark = pytest.mark.slow
 GRASP = "SlideGym/TopSlideGrasp-v0"
@@ -191,6 +193,34 @@ def test_without_a_planned_slide_on_the_straight_one_succeeds(episode, which, mo
         "took over with the fingertip on the plate: slid straight on",
         "no planned slide on (refused by the test)",
     ]
+
+
+def test_low_beside_the_plate_it_approaches_from_there(episode):
+    """A fingertip 1.5 cm over the table, 2.5 cm beside the plate (the press pose moved
+    sideways, as a learner that missed the plate leaves it): no raise first, the approach
+    goes from there, and the plate is lifted."""
+    actions, infos, phases = episode
+    press = _state(actions, phases.index("press"))
+    chain = fingertip_chain()
+    q_press = np.asarray(press["arm_qpos"], dtype=float)
+    tip = chain.forward(q_press[None])[0]
+    beside = tip[:3, 3] + np.array([0.0, 0.075, 0.0])
+    beside[2] = float(press["table_height"][0]) + 0.015
+    rng = np.random.default_rng(0)
+    arm = solve_ik(chain, IKTarget(beside, tip[:3, :3]), rng, q_press[None])
+    assert arm is not None
+    env = gym.make(GRASP)
+    try:
+        obs, _ = env.reset(seed=SEED, options={"arm_qpos": arm.tolist()})
+        agent = PlannerAgent("regions", 60.0, seed=SEED)
+        info = _finish(env, agent, obs)
+        report = agent.expert(0).report
+        agent.close()
+    finally:
+        env.close()
+    assert report.gave_up is None and info["is_success"], report.events
+    assert report.events[0] == "took over with the fingertip low over the table: planning"
+    assert not any("raise" in e or "approach via" in e for e in report.events)
 
 
 def test_pressed_on_a_graspable_plate_it_lifts_off_and_grasps(episode):

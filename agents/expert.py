@@ -24,7 +24,8 @@ toward the nearest edge, is queued, and what follows a slide follows; on a plate
 graspable it lifts off as after a slide and grasps it as it lies. A fingertip pressed where
 no slide on is found, or low near a graspable plate, first rises (``release``); one low beside
 a plate not yet graspable is planned for from where it is (the approach rises straight up to
-the height above the press point, then moves across). A plate already
+the height above the press point, then moves across), and rises first only where that plan
+finds no approach. A plate already
 graspable gets its grasp at once; a plate partly over the edge is planned from where it lies
 (as a replan is); anything else is planned as at the start.
 
@@ -180,6 +181,7 @@ class SlideGraspExpert:
         self.small_plate = False  # likewise: unloading lift-off (is_small_plate)
         self._steps = 0  # actions returned so far
         self._taken_over = False  # the first observation's state has been read
+        self._raise_if_no_approach = False  # taken over low beside the plate: see _take_over
         self.grasp_seed: np.ndarray | None = None  # the plan's grasp, an IK seed for re-aiming
         posture = params.grasp_posture  # re-aimed grasps: the IK solution nearest these
         self.grasp_postures = None if posture is None else mirrored_postures(np.array(posture))
@@ -422,6 +424,7 @@ class SlideGraspExpert:
             where = "on the plate" if on_plate else "low over the table"
             if not on_plate and not graspable:  # the approach rises from here first
                 self.report.events.append(f"took over with the fingertip {where}: planning")
+                self._raise_if_no_approach = True
                 return False
             if on_plate:
                 n = len(self.report.events)
@@ -434,18 +437,22 @@ class SlideGraspExpert:
                     return True
                 what = "lift off" if graspable else "slide on"
                 self.report.events.append(f"no {what} from here ({why})")
-            h = p.lift_off_height
-            line = rise(self.tip, self.q_cmd, (h, h / 2, h / 4), True, self.rng)
-            if line is None:
-                self._fail("no IK solution to raise the fingertip")
-                return True
-            self.report.events.append(f"took over with the fingertip {where}: raised it")
-            self._push(Segment("release", line, 1.0, p.lift_off_speed), self.tip)
+            self._raise_fingertip(f"took over with the fingertip {where}: raised it")
             return True
         if graspable:
             self.report.events.append("took over with the plate graspable: grasping it")
             return self._grasp_as_it_lies(pose)
         return False
+
+    def _raise_fingertip(self, event: str) -> None:
+        """Queue the fingertip straight up by ``lift_off_height`` (``release``); the state is
+        read again from there."""
+        h = self.params.lift_off_height
+        line = rise(self.tip, self.q_cmd, (h, h / 2, h / 4), True, self.rng)
+        if line is None:
+            return self._fail("no IK solution to raise the fingertip")
+        self.report.events.append(event)
+        self._push(Segment("release", line, 1.0, self.params.lift_off_speed), self.tip)
 
     def _slide_on(self, obs: dict[str, np.ndarray]) -> tuple[str | None, str]:
         """Queue a slide on from the pressed fingertip, planned or straight, in the order
@@ -524,8 +531,11 @@ class SlideGraspExpert:
             return self._fail(f"no plan, {result.status.value}: {result.reason}")
         self.use_plan(self.planner, result, pose)
         why = self._queue_press_and_slide(result.start_config, result.path, pose)
+        raise_first, self._raise_if_no_approach = self._raise_if_no_approach, False
         if why is None:
             return None
+        if raise_first:  # from a fingertip low beside the plate: rise, then read it again
+            return self._raise_fingertip(f"{why}: raised the fingertip")
         if self.report.replans >= self.params.max_replans:
             return self._fail(why)
         self.report.events.append(f"{why}: planning again")  # nothing has moved yet

@@ -533,7 +533,7 @@ ROWS = {
         ),
         _stop_dagger(  # ... and approaches from a fingertip low beside the plate (no raise)
             "dp-dagger-approach-ee-square-slide-stop",
-            "square-slide-ee-stop-dagger-approach-v1",
+            "square-slide-ee-stop-dagger-approach-v2",
             ("--chunk-labels", "4"),
         ),
         Row(

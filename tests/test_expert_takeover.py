@@ -7,10 +7,13 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 import pytest
+import shapely
+from shapely.ops import nearest_points
 
 import slide_gym  # noqa: F401 - registers the environments
 from agents.params import ExpertParams
 from agents.planner_agent import PlannerAgent
+from agents.record import ExpertReport
 from slide_gym.planning.ik import IKTarget, solve_ik
 from slide_gym.robot.kinematics import fingertip_chain
 
@@ -195,19 +198,16 @@ def test_without_a_planned_slide_on_the_straight_one_succeeds(episode, which, mo
     ]
 
 
-def test_low_beside_the_plate_it_approaches_from_there(episode):
-    """A fingertip 1.5 cm over the table, 2.5 cm beside the plate (the press pose moved
-    sideways, as a learner that missed the plate leaves it): no raise first, the approach
-    goes from there, and the plate is lifted."""
-    actions, infos, phases = episode
+def _from_the_fingertip_at(episode, where) -> tuple[dict, ExpertReport]:
+    """Reset with the arm in the press pose moved to put the fingertip at ``where(obs, tip)``
+    (as a learner leaves it); a fresh expert's last info and report."""
+    actions, _, phases = episode
     press = _state(actions, phases.index("press"))
     chain = fingertip_chain()
     q_press = np.asarray(press["arm_qpos"], dtype=float)
     tip = chain.forward(q_press[None])[0]
-    beside = tip[:3, 3] + np.array([0.0, 0.075, 0.0])
-    beside[2] = float(press["table_height"][0]) + 0.015
-    rng = np.random.default_rng(0)
-    arm = solve_ik(chain, IKTarget(beside, tip[:3, :3]), rng, q_press[None])
+    target = IKTarget(where(press, tip[:3, 3]), tip[:3, :3])
+    arm = solve_ik(chain, target, np.random.default_rng(0), q_press[None])
     assert arm is not None
     env = gym.make(GRASP)
     try:
@@ -216,11 +216,43 @@ def test_low_beside_the_plate_it_approaches_from_there(episode):
         info = _finish(env, agent, obs)
         report = agent.expert(0).report
         agent.close()
+        return info, report
     finally:
         env.close()
+
+
+LOW = "took over with the fingertip low over the table: planning"
+
+
+def test_low_beside_the_plate_it_approaches_from_there(episode):
+    """1.5 cm over the table, 2.5 cm beside the plate (a learner that missed it): no raise
+    first, the approach goes from there, and the plate is lifted."""
+
+    def beside(obs: dict, tip: np.ndarray) -> np.ndarray:
+        return np.array([tip[0], tip[1] + 0.075, float(obs["table_height"][0]) + 0.015])
+
+    info, report = _from_the_fingertip_at(episode, beside)
     assert report.gave_up is None and info["is_success"], report.events
-    assert report.events[0] == "took over with the fingertip low over the table: planning"
+    assert report.events[0] == LOW
     assert not any("raise" in e or "approach via" in e for e in report.events)
+
+
+def test_low_past_the_table_edge_it_rises_where_no_approach_is_found(episode):
+    """3 cm below the table top, 3 cm past its edge (a learner that followed the plate over
+    it): no approach from there, so the fingertip rises first, and the plate is lifted."""
+
+    def below(obs: dict, tip: np.ndarray) -> np.ndarray:
+        table = shapely.Polygon(np.asarray(obs["table_outline"]).reshape(-1, 2))
+        plate = shapely.Point(obs["object_pose"][:2])
+        edge = np.asarray(nearest_points(table.exterior, plate)[0].coords[0])
+        out = (edge - obs["object_pose"][:2]) / np.linalg.norm(edge - obs["object_pose"][:2])
+        return np.array([*(edge + 0.03 * out), float(obs["table_height"][0]) - 0.03])
+
+    info, report = _from_the_fingertip_at(episode, below)
+    assert report.gave_up is None and info["is_success"], report.events
+    assert report.events[0] == LOW
+    assert report.events[1].startswith("no collision-free approach")
+    assert report.events[1].endswith(": raised the fingertip")
 
 
 def test_pressed_on_a_graspable_plate_it_lifts_off_and_grasps(episode):

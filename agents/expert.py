@@ -422,7 +422,7 @@ class SlideGraspExpert:
         if tip[2] - float(obs["table_height"][0]) < LOW_TIP_HEIGHT:
             on_plate = placed.buffer(0.01).contains(shapely.Point(tip[0], tip[1]))
             where = "on the plate" if on_plate else "low over the table"
-            if not on_plate and not graspable:  # the approach rises from here first
+            if not on_plate and not graspable:  # _plan raises it only if no approach is found
                 self.report.events.append(f"took over with the fingertip {where}: planning")
                 self._raise_if_no_approach = True
                 return False

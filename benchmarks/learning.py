@@ -531,7 +531,7 @@ ROWS = {
             "square-slide-ee-stop-dagger-straight-first-v1",
             ("--chunk-labels", "4", "--expert-param", "straight_slide_on=1"),
         ),
-        _stop_dagger(  # ... and approaches from a fingertip low beside the plate (no raise)
+        _stop_dagger(  # ... and plans from a fingertip low beside the plate (raised only if needed)
             "dp-dagger-approach-ee-square-slide-stop",
             "square-slide-ee-stop-dagger-approach-v2",
             ("--chunk-labels", "4"),

@@ -536,6 +536,11 @@ ROWS = {
             "square-slide-ee-stop-dagger-approach-v2",
             ("--chunk-labels", "4"),
         ),
+        _stop_dagger(  # labels only past the demonstrations' stop, a chunk at every step
+            "dp-dagger-past-stop-ee-square-slide-stop",
+            "square-slide-ee-stop-dagger-past-stop-v1",
+            ("--chunk-labels", "1", "--label-from-overhang", "0.035"),
+        ),
         Row(
             "dp-ee-catalog-slide-stop-b256-10k",
             "dp",

@@ -4,6 +4,7 @@ how well a policy does (benchmarks/learning.py measures that)."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import signal
@@ -391,6 +392,37 @@ def test_a_dagger_round_with_chunk_labels_trains_on_those_windows_only(dart, tra
         ChunkSampler(demos, obs_horizon=2, pred_horizon=32, representation="deltas")
 
 
+def test_a_dagger_round_labels_only_from_the_overhang_asked_for(dart, trained, tmp_path):
+    from agents.learned.dagger import DaggerConfig, run_dagger
+
+    # the plate is still where it was put after 24 steps: no overhang, so nothing is asked
+    config = DaggerConfig(
+        rounds=1,
+        episodes=1,
+        iterations=2,
+        max_steps=24,
+        label_budget=60.0,
+        chunk_every=4,
+        label_from_overhang=0.01,
+    )
+    summary = run_dagger(trained, tmp_path / "dagger", "test/dagger-gate-v0", config, workers=1)
+    (row,) = summary["rounds"]
+    assert row["labelled_steps"] == 24
+    assert row["label_queries"] == 0 and row["chunk_queries"] == 0
+    aggregate = load("test/dagger-gate-v0")
+    rollout = list(read_episodes(aggregate))[2]
+    assert np.isnan(rollout.infos[LABEL_KEY][1:]).all()
+    assert float(np.max(rollout.infos["overhang_m"])) < 0.01
+    demos = load_demonstrations(aggregate)
+    sampler = ChunkSampler(demos, obs_horizon=2, pred_horizon=16, representation="deltas")
+    assert len(sampler) == int(demos.lengths[:2].sum())  # the rollout adds no window
+    # from zero overhang on, every step is asked (the first chunk boundary takes over)
+    config = dataclasses.replace(config, label_from_overhang=0.0)
+    summary = run_dagger(trained, tmp_path / "open", "test/dagger-open-v0", config, workers=1)
+    assert summary["rounds"][0]["label_queries"] >= 1
+    assert summary["rounds"][0]["chunk_queries"] == 6
+
+
 def test_a_dagger_round_of_a_grasp_skill_keeps_its_slide_skill(
     dart, trained, tmp_path, monkeypatch
 ):
@@ -444,6 +476,11 @@ def test_a_dagger_round_of_a_grasp_skill_keeps_its_slide_skill(
             ["dagger", "--policy", "{empty}", "--chunk-labels", "-1", "--out", "d"]
             + ["--dataset-id", "tt/d-v0"],
             "--chunk-labels must be a whole number >= 0",
+        ),
+        (
+            ["dagger", "--policy", "{empty}", "--label-from-overhang", "-0.01", "--out", "d"]
+            + ["--dataset-id", "tt/d-v0"],
+            "--label-from-overhang must be metres in [0, 1)",
         ),
         (
             ["dagger", "--policy", "{empty}", "--expert-param", "straight_slide_on=2"]

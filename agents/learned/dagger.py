@@ -11,6 +11,13 @@ an expert whose plan failed are dropped (NaN, which the trainer skips) and count
 labels given in one of ``skip_phases`` (e.g. ``release``: the expert raising a fingertip the
 learner put where its plan cannot go on, a motion no demonstration shows).
 
+With ``label_from_overhang`` U, an episode is labelled only from the first step at which the
+plate overhangs the table by U or more (``info["overhang_m"]``): the expert first takes over
+at the first chunk boundary from there, and the steps before it get no label. Set to the
+demonstrations' stop (``stop_overhang``), this asks the expert only where the learner has
+slid past every demonstration, the states of its most common failure (pushing the plate on
+until it falls), instead of relabelling the whole slide.
+
 With ``chunk_every`` K, every K-th step also gets a chunk label
 (:meth:`~agents.learned.labeler.PlanLabeler.chunk`): the expert's own next actions from the
 learner's state, run in a second env of the scene, as long as the part of a chunk the policy
@@ -76,6 +83,8 @@ class DaggerConfig:
             learner's state (0: per-step labels only).
         expert_params: overrides of the labelling expert's execution settings
             (:class:`agents.params.ExpertParams`) on top of the base dataset's.
+        label_from_overhang: label each episode only from the first step where the plate
+            overhangs the table by this much (m; None: label every step).
     """
 
     rounds: int = 2
@@ -89,6 +98,7 @@ class DaggerConfig:
     skip_phases: tuple[str, ...] = ()
     chunk_every: int = 0
     expert_params: dict[str, float] | None = None
+    label_from_overhang: float | None = None
 
     def __post_init__(self) -> None:
         unknown = sorted(set(self.skip_phases) - set(PHASES))
@@ -116,6 +126,14 @@ class DaggerConfig:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and 0.0 <= value <= 1.0):
                 raise ValueError(f"--{name} must be a number in [0, 1], got {value!r}")
+        gate = self.label_from_overhang
+        if gate is not None and not (
+            isinstance(gate, (int, float)) and not isinstance(gate, bool) and 0.0 <= gate < 1.0
+        ):
+            raise ValueError(
+                f"--label-from-overhang must be metres in [0, 1), got {gate!r} "
+                "(e.g. 0.035, the square slide's stop)"
+            )
         if not (isinstance(self.label_budget, (int, float)) and self.label_budget > 0):
             raise ValueError(f"--label-budget must be positive seconds, got {self.label_budget!r}")
 
@@ -130,6 +148,7 @@ def rollout_case(case: dict[str, Any]) -> dict[str, Any]:
     policy = DiffusionPolicy.load(case["policy"], seed=seed)
     horizon = policy.config.action_horizon
     chunk_every = int(case.get("chunk_every", 0))
+    gate = case.get("label_from_overhang")
     chunk_length = chunk_label_length(policy.config.obs_horizon, policy.config.pred_horizon)
     rng = np.random.default_rng([seed, round_, case["dagger_seed"]])
     env = gym.make(config.env_id, **config.env_kwargs())
@@ -155,9 +174,11 @@ def rollout_case(case: dict[str, Any]) -> dict[str, Any]:
         observations.append(obs)
         infos.append(step_info(info, base.get_state()))
         t, done, expert_acts = 0, False, False
+        gate_open = gate is None
         while not done:
             boundary = t % horizon == 0
-            label = labeler.label(obs, t, boundary)
+            gate_open = gate_open or float(info["overhang_m"]) >= gate
+            label = labeler.label(obs, t, boundary) if gate_open else None
             if boundary:
                 expert_acts = bool(rng.random() < case["expert_share"])
             learner, _ = policy.predict(obs, episode_start=np.array([t == 0]))
@@ -301,6 +322,11 @@ def run_dagger(
                 "max_steps": config.max_steps,
                 **({"skip_phases": list(config.skip_phases)} if config.skip_phases else {}),
                 **({"chunk_every": config.chunk_every} if config.chunk_every else {}),
+                **(
+                    {"label_from_overhang": float(config.label_from_overhang)}
+                    if config.label_from_overhang is not None
+                    else {}
+                ),
             }
             for s in range(first, first + config.episodes)
         ]

@@ -101,6 +101,7 @@ def _cmd_dagger(args: argparse.Namespace) -> int:
         skip_phases=tuple(args.skip_phases),
         chunk_every=args.chunk_labels,
         expert_params=parse_assignments(args.expert_param, "--expert-param"),
+        label_from_overhang=args.label_from_overhang,
     )
     if args.env is not None:
         from agents.learned.policy import CARD_FILE, is_policy_dir
@@ -290,6 +291,14 @@ def add_parsers(sub: Any) -> None:
         help="every K steps, label the expert's own next chunk from the learner's state (run "
         "in a second env); training then uses those windows of the rollouts only (0: per-step "
         "labels)",
+    )
+    p.add_argument(
+        "--label-from-overhang",
+        type=float,
+        metavar="M",
+        help="label each rollout only from the first step where the plate overhangs the "
+        "table by M metres (e.g. 0.035, the demonstrations' stop): the expert is asked only "
+        "past where every demonstration stopped (default: label every step)",
     )
     p.add_argument(
         "--expert-param",

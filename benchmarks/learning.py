@@ -541,6 +541,12 @@ ROWS = {
             "square-slide-ee-stop-dagger-past-stop-v1",
             ("--chunk-labels", "1", "--label-from-overhang", "0.035"),
         ),
+        _stop_dagger(  # ... or from a fingertip that came down beside the plate
+            "dp-dagger-off-demos-ee-square-slide-stop",
+            "square-slide-ee-stop-dagger-off-demos-v1",
+            ("--chunk-labels", "1", "--label-from-overhang", "0.035")
+            + ("--label-from-miss", "0.015"),
+        ),
         Row(
             "dp-ee-catalog-slide-stop-b256-10k",
             "dp",

@@ -423,6 +423,30 @@ def test_a_dagger_round_labels_only_from_the_overhang_asked_for(dart, trained, t
     assert summary["rounds"][0]["chunk_queries"] == 6
 
 
+def test_states_the_demonstrations_do_not_reach_open_the_label_gate():
+    import shapely
+
+    from agents.learned.dagger import left_demonstrations
+
+    plate = shapely.box(-0.05, -0.05, 0.05, 0.05)
+    info = {"overhang_m": 0.02, "object_pose_2d": np.array([0.6, 0.1, np.pi / 4])}
+    table = {"table_height": np.array([0.7])}
+
+    def tip(x: float, y: float, z: float) -> dict[str, np.ndarray]:
+        return {**table, "fingertip_pose": np.array([x, y, 0.7 + z, 0, 0, 0, 1.0])}
+
+    on_plate, beside, above = tip(0.6, 0.1, 0.005), tip(0.6, 0.19, 0.005), tip(0.6, 0.19, 0.05)
+    # turned 45 degrees, the square reaches 7.1 cm from its centre along y: 9 cm is off it
+    assert not left_demonstrations(on_plate, info, plate, overhang=0.035, miss_height=0.015)
+    assert left_demonstrations(beside, info, plate, overhang=0.035, miss_height=0.015)
+    assert not left_demonstrations(above, info, plate, overhang=0.035, miss_height=0.015)
+    assert not left_demonstrations(tip(0.6, 0.175, 0.005), info, plate, miss_height=0.015)
+    assert not left_demonstrations(beside, info, plate, overhang=0.035)  # no miss gate
+    slid = {**info, "overhang_m": 0.036}
+    assert left_demonstrations(on_plate, slid, plate, overhang=0.035)
+    assert not left_demonstrations(on_plate, slid, plate, miss_height=0.015)
+
+
 def test_a_dagger_round_of_a_grasp_skill_keeps_its_slide_skill(
     dart, trained, tmp_path, monkeypatch
 ):
@@ -481,6 +505,11 @@ def test_a_dagger_round_of_a_grasp_skill_keeps_its_slide_skill(
             ["dagger", "--policy", "{empty}", "--label-from-overhang", "-0.01", "--out", "d"]
             + ["--dataset-id", "tt/d-v0"],
             "--label-from-overhang must be metres in [0, 1)",
+        ),
+        (
+            ["dagger", "--policy", "{empty}", "--label-from-miss", "nan", "--out", "d"]
+            + ["--dataset-id", "tt/d-v0"],
+            "--label-from-miss must be metres in [0, 1)",
         ),
         (
             ["dagger", "--policy", "{empty}", "--expert-param", "straight_slide_on=2"]

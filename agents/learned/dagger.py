@@ -11,12 +11,14 @@ an expert whose plan failed are dropped (NaN, which the trainer skips) and count
 labels given in one of ``skip_phases`` (e.g. ``release``: the expert raising a fingertip the
 learner put where its plan cannot go on, a motion no demonstration shows).
 
-With ``label_from_overhang`` U, an episode is labelled only from the first step at which the
-plate overhangs the table by U or more (``info["overhang_m"]``): the expert first takes over
-at the first chunk boundary from there, and the steps before it get no label. Set to the
-demonstrations' stop (``stop_overhang``), this asks the expert only where the learner has
-slid past every demonstration, the states of its most common failure (pushing the plate on
-until it falls), instead of relabelling the whole slide.
+With ``label_from_overhang`` U and/or ``label_from_miss`` H, an episode is labelled only
+from the first step where the learner is somewhere the demonstrations do not go
+(:func:`left_demonstrations`): the plate overhangs the table by U or more (set to the
+demonstrations' stop, the learner has slid past every demonstration), or the fingertip is
+within H of the table top but more than :data:`MISS_MARGIN_M` off the plate's outline (it
+came down beside the plate instead of on it). The expert first takes over at the next chunk
+boundary, and the steps before get no label, so the states the learner handles like the
+demonstrations are not relabelled by an expert that would press, slide and aim elsewhere.
 
 With ``chunk_every`` K, every K-th step also gets a chunk label
 (:meth:`~agents.learned.labeler.PlanLabeler.chunk`): the expert's own next actions from the
@@ -47,6 +49,7 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
+import shapely
 
 from agents.expert import PHASES
 from agents.learned.data import chunk_label_length
@@ -61,6 +64,7 @@ from slide_gym.datasets.recording import (
     stack_infos,
     step_info,
 )
+from slide_gym.geometry import transform_polygon
 from slide_gym.splits import DAGGER_SEED
 
 
@@ -84,7 +88,9 @@ class DaggerConfig:
         expert_params: overrides of the labelling expert's execution settings
             (:class:`agents.params.ExpertParams`) on top of the base dataset's.
         label_from_overhang: label each episode only from the first step where the plate
-            overhangs the table by this much (m; None: label every step).
+            overhangs the table by this much (m), or (with ``label_from_miss``) ...
+        label_from_miss: ... where the fingertip is within this height of the table top (m)
+            and off the plate (:func:`left_demonstrations`). Both None: label every step.
     """
 
     rounds: int = 2
@@ -99,6 +105,7 @@ class DaggerConfig:
     chunk_every: int = 0
     expert_params: dict[str, float] | None = None
     label_from_overhang: float | None = None
+    label_from_miss: float | None = None
 
     def __post_init__(self) -> None:
         unknown = sorted(set(self.skip_phases) - set(PHASES))
@@ -126,19 +133,51 @@ class DaggerConfig:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and 0.0 <= value <= 1.0):
                 raise ValueError(f"--{name} must be a number in [0, 1], got {value!r}")
-        gate = self.label_from_overhang
-        if gate is not None and not (
-            isinstance(gate, (int, float)) and not isinstance(gate, bool) and 0.0 <= gate < 1.0
-        ):
-            raise ValueError(
-                f"--label-from-overhang must be metres in [0, 1), got {gate!r} "
-                "(e.g. 0.035, the square slide's stop)"
-            )
+        for name in ("label_from_overhang", "label_from_miss"):
+            value = getattr(self, name)
+            if value is not None and not (
+                isinstance(value, (int, float)) and not isinstance(value, bool) and 0 <= value < 1
+            ):
+                flag = "--" + name.replace("_", "-")
+                raise ValueError(f"{flag} must be metres in [0, 1), got {value!r}")
         if not (isinstance(self.label_budget, (int, float)) and self.label_budget > 0):
             raise ValueError(f"--label-budget must be positive seconds, got {self.label_budget!r}")
 
     def expert_share(self, round_: int) -> float:
         return float(self.beta * self.decay ** (round_ - 1))
+
+    def gates(self) -> dict[str, float]:
+        """The label gates set (:func:`left_demonstrations`' keyword arguments)."""
+        named = {"overhang": self.label_from_overhang, "miss_height": self.label_from_miss}
+        return {k: float(v) for k, v in named.items() if v is not None}
+
+
+MISS_MARGIN_M = 0.01
+"""m: a fingertip farther than this outside the plate's outline is off the plate (the
+expert's takeover uses the same margin)."""
+
+
+def left_demonstrations(
+    obs: dict[str, np.ndarray],
+    info: dict[str, Any],
+    plate: shapely.Polygon,
+    *,
+    overhang: float | None = None,
+    miss_height: float | None = None,
+) -> bool:
+    """Whether the state is one the demonstrations do not reach: the plate overhangs the table
+    by ``overhang`` or more (``info["overhang_m"]``), or the fingertip is within
+    ``miss_height`` of the table top and more than :data:`MISS_MARGIN_M` outside ``plate``
+    (the plate's outline at the origin, placed at ``info["object_pose_2d"]``)."""
+    if overhang is not None and float(info["overhang_m"]) >= overhang:
+        return True
+    if miss_height is None:
+        return False
+    tip = np.asarray(obs["fingertip_pose"], dtype=float)
+    if tip[2] - float(obs["table_height"][0]) >= miss_height:
+        return False
+    placed = transform_polygon(plate, *np.asarray(info["object_pose_2d"], dtype=float))
+    return not placed.buffer(MISS_MARGIN_M).contains(shapely.Point(tip[0], tip[1]))
 
 
 def rollout_case(case: dict[str, Any]) -> dict[str, Any]:
@@ -148,7 +187,7 @@ def rollout_case(case: dict[str, Any]) -> dict[str, Any]:
     policy = DiffusionPolicy.load(case["policy"], seed=seed)
     horizon = policy.config.action_horizon
     chunk_every = int(case.get("chunk_every", 0))
-    gate = case.get("label_from_overhang")
+    gates = case.get("label_gates") or {}
     chunk_length = chunk_label_length(policy.config.obs_horizon, policy.config.pred_horizon)
     rng = np.random.default_rng([seed, round_, case["dagger_seed"]])
     env = gym.make(config.env_id, **config.env_kwargs())
@@ -174,10 +213,11 @@ def rollout_case(case: dict[str, Any]) -> dict[str, Any]:
         observations.append(obs)
         infos.append(step_info(info, base.get_state()))
         t, done, expert_acts = 0, False, False
-        gate_open = gate is None
+        plate = base.task.object.polygon
+        gate_open = not gates
         while not done:
             boundary = t % horizon == 0
-            gate_open = gate_open or float(info["overhang_m"]) >= gate
+            gate_open = gate_open or left_demonstrations(obs, info, plate, **gates)
             label = labeler.label(obs, t, boundary) if gate_open else None
             if boundary:
                 expert_acts = bool(rng.random() < case["expert_share"])
@@ -322,11 +362,7 @@ def run_dagger(
                 "max_steps": config.max_steps,
                 **({"skip_phases": list(config.skip_phases)} if config.skip_phases else {}),
                 **({"chunk_every": config.chunk_every} if config.chunk_every else {}),
-                **(
-                    {"label_from_overhang": float(config.label_from_overhang)}
-                    if config.label_from_overhang is not None
-                    else {}
-                ),
+                **({"label_gates": config.gates()} if config.gates() else {}),
             }
             for s in range(first, first + config.episodes)
         ]

@@ -102,6 +102,7 @@ def _cmd_dagger(args: argparse.Namespace) -> int:
         chunk_every=args.chunk_labels,
         expert_params=parse_assignments(args.expert_param, "--expert-param"),
         label_from_overhang=args.label_from_overhang,
+        label_from_miss=args.label_from_miss,
     )
     if args.env is not None:
         from agents.learned.policy import CARD_FILE, is_policy_dir
@@ -299,6 +300,14 @@ def add_parsers(sub: Any) -> None:
         help="label each rollout only from the first step where the plate overhangs the "
         "table by M metres (e.g. 0.035, the demonstrations' stop): the expert is asked only "
         "past where every demonstration stopped (default: label every step)",
+    )
+    p.add_argument(
+        "--label-from-miss",
+        type=float,
+        metavar="H",
+        help="label each rollout only from the first step where the fingertip is within H "
+        "metres of the table top and more than 1 cm off the plate (it came down beside the "
+        "plate), e.g. 0.015; with --label-from-overhang, from whichever comes first",
     )
     p.add_argument(
         "--expert-param",

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from slide_gym import __version__
 
-CODE_PATHS = ("slide_gym", "urdf", "pyproject.toml")
+CODE_PATHS = ("slide_gym", "agents", "urdf", "pyproject.toml")
 """What decides a result (relative to the checkout's top): changes elsewhere (README, tests,
 results/) leave the version as it is."""
 

@@ -541,6 +541,11 @@ ROWS = {
             "square-slide-ee-stop-dagger-past-stop-v1",
             ("--chunk-labels", "1", "--label-from-overhang", "0.035"),
         ),
+        _stop_dagger(  # the same with another seed (learner noise, training)
+            "dp-dagger-past-stop-ee-square-slide-stop-seed1",
+            "square-slide-ee-stop-dagger-past-stop-seed1-v1",
+            ("--chunk-labels", "1", "--label-from-overhang", "0.035", "--seed", "1"),
+        ),
         _stop_dagger(  # ... or from a fingertip that came down beside the plate
             "dp-dagger-off-demos-ee-square-slide-stop",
             "square-slide-ee-stop-dagger-off-demos-v1",

@@ -110,8 +110,8 @@ STOP_DAGGER = ["--beta", "0", "--max-steps", "600"]
 rollout is cut at 600 steps (the expert's 200 demonstrations take 111-429 steps, median 236)."""
 
 
-def _stop_dagger(name: str, dataset: str, extra: tuple = ()) -> Row:
-    """One DAgger round of 100 rollouts from ``dp-ee-square-slide-stop`` into ``dataset``."""
+def _stop_dagger(name: str, dataset: str, extra: tuple = (), rounds: int = 1) -> Row:
+    """DAgger rounds (100 rollouts each) from ``dp-ee-square-slide-stop`` into ``dataset``."""
     return Row(
         name,
         "dp-dagger",
@@ -119,7 +119,7 @@ def _stop_dagger(name: str, dataset: str, extra: tuple = ()) -> Row:
         {**SQUARE, **EE},
         f"slide-gym/{dataset}",
         {},
-        ["--rounds", "1", "--episodes", "100", "--workers", "1", *STOP_DAGGER, *extra],
+        ["--rounds", str(rounds), "--episodes", "100", "--workers", "1", *STOP_DAGGER, *extra],
         base="dp-ee-square-slide-stop",
     )
 
@@ -545,6 +545,17 @@ ROWS = {
             "dp-dagger-past-stop-ee-square-slide-stop-seed1",
             "square-slide-ee-stop-dagger-past-stop-seed1-v1",
             ("--chunk-labels", "1", "--label-from-overhang", "0.035", "--seed", "1"),
+        ),
+        _stop_dagger(
+            "dp-dagger-past-stop-ee-square-slide-stop-seed2",
+            "square-slide-ee-stop-dagger-past-stop-seed2-v1",
+            ("--chunk-labels", "1", "--label-from-overhang", "0.035", "--seed", "2"),
+        ),
+        _stop_dagger(  # a second round (rollouts of the first round's policy), same gate
+            "dp-dagger2-past-stop-ee-square-slide-stop",
+            "square-slide-ee-stop-dagger2-past-stop-v1",
+            ("--chunk-labels", "1", "--label-from-overhang", "0.035"),
+            rounds=2,
         ),
         _stop_dagger(  # ... or from a fingertip that came down beside the plate
             "dp-dagger-off-demos-ee-square-slide-stop",

@@ -551,6 +551,12 @@ ROWS = {
             "square-slide-ee-stop-dagger-past-stop-seed2-v1",
             ("--chunk-labels", "1", "--label-from-overhang", "0.035", "--seed", "2"),
         ),
+        _stop_dagger(  # a second round: rollouts of the seed-1 round's policy, same gate
+            "dp-dagger2-past-stop-ee-square-slide-stop-seed1",
+            "square-slide-ee-stop-dagger2-past-stop-seed1-v1",
+            ("--chunk-labels", "1", "--label-from-overhang", "0.035", "--seed", "1"),
+            rounds=2,
+        ),
         _stop_dagger(  # ... or from a fingertip that came down beside the plate
             "dp-dagger-off-demos-ee-square-slide-stop",
             "square-slide-ee-stop-dagger-off-demos-v1",

@@ -91,6 +91,8 @@ from slide_gym.robot.model import ARM_LOWER, ARM_UPPER, READY_ARM_Q
 LOW_TIP_HEIGHT = 0.03
 """m: a fingertip this close above the table top (pressing the plate, or low beside it) when
 the expert takes over rises first: from there every route would start in collision."""
+ON_PLATE_MARGIN = 0.01
+"""m: a fingertip within this distance of the plate's outline counts as on the plate."""
 RETIME_MIN_STEP = 0.1
 """Action units: a re-timed plan's actions may always move this fast (a learner off a plan
 that holds still is led back at this pace)."""
@@ -420,7 +422,7 @@ class SlideGraspExpert:
         tip = np.asarray(obs["fingertip_pose"][:3], dtype=float)
         graspable = overhang(placed, self.table.polygon).graspable(self.grasp_u_star)
         if tip[2] - float(obs["table_height"][0]) < LOW_TIP_HEIGHT:
-            on_plate = placed.buffer(0.01).contains(shapely.Point(tip[0], tip[1]))
+            on_plate = placed.buffer(ON_PLATE_MARGIN).contains(shapely.Point(tip[0], tip[1]))
             where = "on the plate" if on_plate else "low over the table"
             if not on_plate and not graspable:  # _plan raises it only if no approach is found
                 self.report.events.append(f"took over with the fingertip {where}: planning")

@@ -8,8 +8,9 @@ cover) and in a DAgger run's learner rollouts (how many of its failures they cat
 For each episode, the first step at which :func:`agents.learned.dagger.left_demonstrations`
 holds with the gates given (``slide-gym dagger --label-from-overhang``, ``--label-from-miss``),
 and which gate opened it. Prints, for the demonstrations and for the successful and failed
-rollouts, how many episodes a gate opens in, at which steps, and how many steps follow
-(those a gated DAgger round asks the expert about).
+rollouts, how many episodes a gate opens in, at which steps, how many steps follow it to the
+episode's end, and how many steps that makes in all (those a gated DAgger round asks the
+expert about).
 """
 
 from __future__ import annotations
@@ -50,13 +51,16 @@ def summary(name: str, episodes: Iterable[Any], overhang: float | None, miss: fl
         n += 1
         hit = first_open(e, overhang, miss)
         if hit is not None:
-            opened[hit[1]].append(hit[0])
+            opened[hit[1]].append((hit[0], len(e.actions) - hit[0]))
             steps += len(e.actions) - hit[0]
-    parts = [
-        f"{gate} {len(ts)} (steps {min(ts)}-{max(ts)}, median {int(np.median(ts))})"
-        for gate, ts in opened.items()
-        if ts
-    ]
+    parts = []
+    for gate, hits in opened.items():
+        if hits:
+            at, left = np.array(hits).T
+            parts.append(
+                f"{gate} {len(hits)} (steps {at.min()}-{at.max()}, median {np.median(at):.0f}; "
+                f"{left.min()}-{left.max()} steps to the end, median {np.median(left):.0f})"
+            )
     print(f"{name}: {n} episodes; gate opened in {', '.join(parts) or 'none'}; {steps} steps after")
 
 

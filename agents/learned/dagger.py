@@ -15,10 +15,11 @@ With ``label_from_overhang`` U and/or ``label_from_miss`` H, an episode is label
 from the first step where the learner is somewhere the demonstrations do not go
 (:func:`left_demonstrations`): the plate overhangs the table by U or more (set to the
 demonstrations' stop, the learner has slid past every demonstration), or the fingertip is
-within H of the table top but more than :data:`MISS_MARGIN_M` off the plate's outline (it
-came down beside the plate instead of on it). The expert first takes over at the next chunk
-boundary, and the steps before get no label, so the states the learner handles like the
-demonstrations are not relabelled by an expert that would press, slide and aim elsewhere.
+within H of the table top but more than :data:`agents.expert.ON_PLATE_MARGIN` off the
+plate's outline (it came down beside the plate instead of on it). The expert first takes
+over at the next chunk boundary, and the steps before get no label, so the states the
+learner handles like the demonstrations are not relabelled by an expert that would press,
+slide and aim elsewhere.
 
 With ``chunk_every`` K, every K-th step also gets a chunk label
 (:meth:`~agents.learned.labeler.PlanLabeler.chunk`): the expert's own next actions from the
@@ -51,7 +52,7 @@ import gymnasium as gym
 import numpy as np
 import shapely
 
-from agents.expert import PHASES
+from agents.expert import ON_PLATE_MARGIN, PHASES
 from agents.learned.data import chunk_label_length
 from agents.learned.labeler import PlanLabeler
 from agents.learned.policy import FIRST_FILE, DiffusionPolicy, is_policy_dir
@@ -152,11 +153,6 @@ class DaggerConfig:
         return {k: float(v) for k, v in named.items() if v is not None}
 
 
-MISS_MARGIN_M = 0.01
-"""m: a fingertip farther than this outside the plate's outline is off the plate (the
-expert's takeover uses the same margin)."""
-
-
 def left_demonstrations(
     obs: dict[str, np.ndarray],
     info: dict[str, Any],
@@ -167,8 +163,9 @@ def left_demonstrations(
 ) -> bool:
     """Whether the state is one the demonstrations do not reach: the plate overhangs the table
     by ``overhang`` or more (``info["overhang_m"]``), or the fingertip is within
-    ``miss_height`` of the table top and more than :data:`MISS_MARGIN_M` outside ``plate``
-    (the plate's outline at the origin, placed at ``info["object_pose_2d"]``)."""
+    ``miss_height`` of the table top and more than :data:`agents.expert.ON_PLATE_MARGIN`
+    outside ``plate`` (the plate's outline at the origin, placed at
+    ``info["object_pose_2d"]``)."""
     if overhang is not None and float(info["overhang_m"]) >= overhang:
         return True
     if miss_height is None:
@@ -177,7 +174,7 @@ def left_demonstrations(
     if tip[2] - float(obs["table_height"][0]) >= miss_height:
         return False
     placed = transform_polygon(plate, *np.asarray(info["object_pose_2d"], dtype=float))
-    return not placed.buffer(MISS_MARGIN_M).contains(shapely.Point(tip[0], tip[1]))
+    return not placed.buffer(ON_PLATE_MARGIN).contains(shapely.Point(tip[0], tip[1]))
 
 
 def rollout_case(case: dict[str, Any]) -> dict[str, Any]:

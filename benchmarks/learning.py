@@ -110,17 +110,25 @@ STOP_DAGGER = ["--beta", "0", "--max-steps", "600"]
 rollout is cut at 600 steps (the expert's 200 demonstrations take 111-429 steps, median 236)."""
 
 
-def _stop_dagger(name: str, dataset: str, extra: tuple = (), rounds: int = 1) -> Row:
-    """DAgger rounds (100 rollouts each) from ``dp-ee-square-slide-stop`` into ``dataset``."""
+def _stop_dagger(
+    name: str,
+    dataset: str,
+    extra: tuple = (),
+    rounds: int = 1,
+    base: str = "dp-ee-square-slide-stop",
+    physics: dict[str, Any] | None = None,
+) -> Row:
+    """DAgger rounds (100 rollouts each) from ``base`` into ``dataset``; ``physics``: the
+    base's scene physics (e.g. :data:`ANCHOR`), which its dataset's rollouts run in too."""
     return Row(
         name,
         "dp-dagger",
         SLIDE,
-        {**SQUARE, **EE},
+        {**SQUARE, **EE, **(physics or {})},
         f"slide-gym/{dataset}",
         {},
         ["--rounds", str(rounds), "--episodes", "100", "--workers", "1", *STOP_DAGGER, *extra],
-        base="dp-ee-square-slide-stop",
+        base=base,
     )
 
 
@@ -156,6 +164,9 @@ as many iterations as fitted; no simulator there, so ``run`` validates the snaps
 CPU_B256 = ["--batch-size", "256", "--val-every", "5000"]
 """Batches of 256 on one core (0.22 s per iteration on an AMD EPYC core with the other core
 training too: 10000 iterations in 37-39 minutes, 20000 in 79), validated every 5000."""
+ANCHOR_SEEDS = [("", []), ("-seed1", ["--seed", "1"]), ("-seed2", ["--seed", "2"])]
+"""The anchored batch-256 bases' training seeds (row suffix, ``train-dp`` options); their
+DAgger rows and controls train at the base's seed."""
 OFFSETS = ["--actions", "offsets"]
 """The chunks of the rows trained before per-step deltas became the default."""
 ROWS = {
@@ -562,6 +573,29 @@ ROWS = {
             "square-slide-ee-stop-dagger-off-demos-v1",
             ("--chunk-labels", "1", "--label-from-overhang", "0.035")
             + ("--label-from-miss", "0.015"),
+        ),
+        *(
+            Row(  # the control of the anchored DAgger rows: as many iterations on the demos alone
+                f"dp-ee-square-slide-stop-anchor-b256-10k{suffix}-ft",
+                "dp",
+                SLIDE,
+                {**SQUARE, **EE, **ANCHOR},
+                "slide-gym/square-slide-ee-stop-anchor-v1",
+                {**SQUARE_SLIDE, "expert_params": {"stop_overhang": 0.035}},
+                ["--init", f"{{models}}/dp-ee-square-slide-stop-anchor-b256-10k{suffix}"]
+                + ["--batch-size", "256", "--iterations", "5000", "--val-every", "0", *seed],
+            )
+            for suffix, seed in ANCHOR_SEEDS
+        ),
+        *(
+            _stop_dagger(  # the past-stop gate on each anchored batch-256 base (batch 256 too)
+                f"dp-dagger-past-stop-ee-square-slide-stop-anchor-b256-10k{suffix}",
+                f"square-slide-ee-stop-anchor-dagger-past-stop{suffix}-v1",
+                ("--chunk-labels", "1", "--label-from-overhang", "0.035", *seed),
+                base=f"dp-ee-square-slide-stop-anchor-b256-10k{suffix}",
+                physics=ANCHOR,
+            )
+            for suffix, seed in ANCHOR_SEEDS
         ),
         Row(
             "dp-ee-catalog-slide-stop-b256-10k",

@@ -352,6 +352,12 @@ def test_one_dagger_round_adds_labelled_steps(dart, trained, tmp_path):
     assert np.isfinite(labels).all()  # every query planned
     assert not np.array_equal(labels, rollout.actions)  # the learner acted, the expert labelled
     assert (tmp_path / "dagger" / "round-1" / "policy" / "policy.pt").is_file()
+    # the round retrains with the base's batch size and AdamW settings, not the defaults
+    card = json.loads((tmp_path / "dagger" / "round-1" / "policy" / "policy.json").read_text())
+    base = json.loads((trained / "policy.json").read_text())["training"]
+    for key in ("batch_size", "learning_rate", "warmup"):
+        assert card["training"][key] == base[key], key
+    assert card["training"]["batch_size"] == 32 and card["training"]["iterations"] == 20
     # the same command again resumes: nothing left to run, same figures
     again = run_dagger(trained, tmp_path / "dagger", "test/dagger-v0", config, workers=1)
     assert again["rounds"][0]["labelled_steps"] == 24

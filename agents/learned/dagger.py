@@ -298,6 +298,13 @@ def with_labels(episode: RecordedEpisode, chunk_length: int = 0) -> RecordedEpis
     return episode
 
 
+def _base_optimiser(training: dict[str, Any]) -> dict[str, Any]:
+    """The base policy's batch size and AdamW settings (its card's ``training``), which
+    every DAgger round keeps: a policy trained at batch 256 is retrained at batch 256."""
+    keys = ("batch_size", "learning_rate", "weight_decay", "warmup")
+    return {k: training[k] for k in keys if k in training}
+
+
 def run_dagger(
     policy_dir: Path,
     out: Path,
@@ -420,6 +427,7 @@ def run_dagger(
                 seed=config.seed,
                 val_every=0,
                 val_episodes=int(card["training"].get("val_episodes", 20)),
+                **_base_optimiser(card["training"]),
             ),
             env_id=collect.env_id,
             env_kwargs=collect.env_kwargs(),

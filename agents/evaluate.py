@@ -108,13 +108,20 @@ class RandomAgent:
 
 
 def _open_agent(
-    agent: Any, action_horizon: int | None = None, noise_scale: float | None = None
+    agent: Any,
+    action_horizon: int | None = None,
+    noise_scale: float | None = None,
+    inference_steps: int | None = None,
 ) -> tuple[str | None, Any, dict[str, Any]]:
     """``(planner name or None, policy with predict or None, its card)``: the card holds the
     ``env_id`` and ``env_kwargs`` it was trained with (``{}`` for planners and ``random``)."""
     sampling = {
         name: value
-        for name, value in (("action_horizon", action_horizon), ("noise_scale", noise_scale))
+        for name, value in (
+            ("action_horizon", action_horizon),
+            ("noise_scale", noise_scale),
+            ("inference_steps", inference_steps),
+        )
         if value is not None
     }
     if sampling and not (isinstance(agent, (str, Path)) and Path(agent).is_dir()):
@@ -183,6 +190,7 @@ def evaluate(
     max_steps: int | None = None,
     action_horizon: int | None = None,
     noise_scale: float | None = None,
+    inference_steps: int | None = None,
 ) -> dict[str, Any]:
     """Run ``agent`` for ``episodes`` episodes of ``gym.make(env_id, **env_kwargs)`` with reset
     seeds ``seed``, ``seed + 1``, ... and report how often it succeeded.
@@ -209,6 +217,8 @@ def evaluate(
             policy's own; :class:`~agents.learned.policy.DiffusionPolicy`).
         noise_scale: a diffusion-policy folder's initial sampling noise, scaled (default 1;
             :class:`~agents.learned.policy.DiffusionPolicy`).
+        inference_steps: a diffusion-policy folder's DDIM steps per chunk (default: the
+            policy's own, 10).
 
     Returns:
         ``{"agent", "env_id", "env_kwargs", "episodes", "successes", "success_rate", "ci95",
@@ -224,7 +234,7 @@ def evaluate(
         raise ValueError(f"max_steps must be a positive integer or None, got {max_steps!r}")
     if env_id not in DICT_ENV_IDS:
         raise ValueError(f"env_id must be one of {', '.join(DICT_ENV_IDS)}, got {env_id!r}")
-    planner, model, card = _open_agent(agent, action_horizon, noise_scale)
+    planner, model, card = _open_agent(agent, action_horizon, noise_scale, inference_steps)
     if planner:
         check_time_budget(time_budget)
     trained_in = card.get("env_id")
@@ -306,6 +316,7 @@ def evaluate(
         "env_kwargs": kwargs,
         **({"action_horizon": action_horizon} if action_horizon is not None else {}),
         **({"noise_scale": noise_scale} if noise_scale is not None else {}),
+        **({"inference_steps": inference_steps} if inference_steps is not None else {}),
         "episodes": len(results),
         "successes": k,
         "success_rate": k / len(results),

@@ -290,6 +290,26 @@ def test_zero_noise_scale_samples_the_same_chunk_whatever_the_seed(trained):
             DiffusionPolicy.load(trained, noise_scale=bad)
 
 
+def test_inference_steps_change_the_sampled_chunk(trained):
+    """The DDIM steps per chunk are a sampling choice of the loaded policy: with the same
+    seed, 1 and the model's own 10 give different chunks; 10 given explicitly, the same."""
+    env = gym.make(ENV_ID)
+    obs, _ = env.reset(seed=0)
+    env.close()
+
+    def first_action(**kwargs: int) -> np.ndarray:
+        policy = DiffusionPolicy.load(trained, seed=0, **kwargs)
+        return policy.predict(obs, episode_start=np.array([True]))[0]
+
+    own = first_action()
+    steps = DiffusionPolicy.load(trained).config.inference_steps
+    np.testing.assert_array_equal(first_action(inference_steps=steps), own)
+    assert not np.array_equal(first_action(inference_steps=1), own)
+    for bad in (0, 101, 2.0, True):
+        with pytest.raises(ValueError, match="inference_steps"):
+            DiffusionPolicy.load(trained, inference_steps=bad)
+
+
 def test_runs_under_sb3_evaluate_policy_on_a_vectorised_env(trained):
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.evaluation import evaluate_policy
@@ -317,6 +337,11 @@ def test_evaluate_command_runs_a_policy_folder(trained, capsys):
     assert main([*args, "--noise-scale", "2"]) == 2
     err = capsys.readouterr().err
     assert "noise_scale" in err and len(err.strip().splitlines()) == 1
+    assert main([*args, "--inference-steps", "3"]) == 0
+    assert json.loads(capsys.readouterr().out)["inference_steps"] == 3
+    assert main([*args, "--inference-steps", "0"]) == 2
+    err = capsys.readouterr().err
+    assert "inference_steps" in err and len(err.strip().splitlines()) == 1
 
 
 def test_train_dp_init_starts_from_a_policys_weights(dart, trained, tmp_path, capsys):
@@ -488,6 +513,7 @@ def test_a_dagger_round_of_a_grasp_skill_keeps_its_slide_skill(
         (["evaluate", "{empty}", "--episodes", "1"], "without a saved policy"),
         (["evaluate", "regions", "--episodes", "1", "--action-horizon", "4"], "action_horizon"),
         (["evaluate", "regions", "--episodes", "1", "--noise-scale", "0"], "noise_scale"),
+        (["evaluate", "regions", "--episodes", "1", "--inference-steps", "5"], "inference_steps"),
         (
             ["collect", "--episodes", "1", "--action-noise", "-1", "--dataset-id", "t/x-v0"],
             "action_noise",

@@ -122,7 +122,7 @@ class DiffusionPolicy:
             )
         self.horizons = [self._action_horizon(m.config, action_horizon) for m in self.skills]
         self.action_horizon = self.horizons[-1]
-        self.inference_steps = inference_steps
+        self.inference_steps = self._inference_steps(model.config, inference_steps)
         self.noise_scale = self._noise_scale(noise_scale)
         self.card = dict(card or {})
         env_kwargs = self.card.get("env_kwargs") or {}
@@ -152,6 +152,21 @@ class DiffusionPolicy:
                 f"obs_horizon + 1), got {action_horizon!r}"
             )
         return action_horizon
+
+    @staticmethod
+    def _inference_steps(config: DiffusionConfig, steps: int | None) -> int | None:
+        if steps is None:
+            return None
+        if (
+            isinstance(steps, bool)
+            or not isinstance(steps, int)
+            or not 1 <= steps <= config.train_steps
+        ):
+            raise ValueError(
+                f"inference_steps must be a whole number in 1..{config.train_steps} (the "
+                f"model's training diffusion steps), got {steps!r}"
+            )
+        return steps
 
     @staticmethod
     def _noise_scale(noise_scale: float) -> float:

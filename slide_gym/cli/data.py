@@ -241,6 +241,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
             progress=not args.json,
             action_horizon=args.action_horizon,
             noise_scale=args.noise_scale,
+            inference_steps=args.inference_steps,
         )
     if args.split is not None:
         result["split"] = args.split
@@ -484,6 +485,13 @@ def add_parsers(sub: Any) -> None:
         metavar="S",
         help="a train-dp policy's initial sampling noise, scaled: 1 samples its action "
         "distribution (default), 0 starts each chunk from zero noise; in [0, 1]",
+    )
+    p.add_argument(
+        "--inference-steps",
+        type=int,
+        metavar="K",
+        help="a train-dp policy's DDIM steps per chunk (default: the policy's, 10); 1..its "
+        "training diffusion steps (100)",
     )
     add_randomization(p)
     add_physics(p)

@@ -112,6 +112,7 @@ def _open_agent(
     action_horizon: int | None = None,
     noise_scale: float | None = None,
     inference_steps: int | None = None,
+    samples: int | None = None,
 ) -> tuple[str | None, Any, dict[str, Any]]:
     """``(planner name or None, policy with predict or None, its card)``: the card holds the
     ``env_id`` and ``env_kwargs`` it was trained with (``{}`` for planners and ``random``)."""
@@ -121,6 +122,7 @@ def _open_agent(
             ("action_horizon", action_horizon),
             ("noise_scale", noise_scale),
             ("inference_steps", inference_steps),
+            ("samples", samples),
         )
         if value is not None
     }
@@ -191,6 +193,7 @@ def evaluate(
     action_horizon: int | None = None,
     noise_scale: float | None = None,
     inference_steps: int | None = None,
+    samples: int | None = None,
 ) -> dict[str, Any]:
     """Run ``agent`` for ``episodes`` episodes of ``gym.make(env_id, **env_kwargs)`` with reset
     seeds ``seed``, ``seed + 1``, ... and report how often it succeeded.
@@ -219,6 +222,8 @@ def evaluate(
             :class:`~agents.learned.policy.DiffusionPolicy`).
         inference_steps: a diffusion-policy folder's DDIM steps per chunk (default: the
             policy's own, 10).
+        samples: a diffusion-policy folder's chunks drawn per decision, of which it executes
+            the medoid (default 1: one sample; :class:`~agents.learned.policy.DiffusionPolicy`).
 
     Returns:
         ``{"agent", "env_id", "env_kwargs", "episodes", "successes", "success_rate", "ci95",
@@ -234,7 +239,9 @@ def evaluate(
         raise ValueError(f"max_steps must be a positive integer or None, got {max_steps!r}")
     if env_id not in DICT_ENV_IDS:
         raise ValueError(f"env_id must be one of {', '.join(DICT_ENV_IDS)}, got {env_id!r}")
-    planner, model, card = _open_agent(agent, action_horizon, noise_scale, inference_steps)
+    planner, model, card = _open_agent(
+        agent, action_horizon, noise_scale, inference_steps, samples
+    )
     if planner:
         check_time_budget(time_budget)
     trained_in = card.get("env_id")
@@ -317,6 +324,7 @@ def evaluate(
         **({"action_horizon": action_horizon} if action_horizon is not None else {}),
         **({"noise_scale": noise_scale} if noise_scale is not None else {}),
         **({"inference_steps": inference_steps} if inference_steps is not None else {}),
+        **({"samples": samples} if samples is not None else {}),
         "episodes": len(results),
         "successes": k,
         "success_rate": k / len(results),

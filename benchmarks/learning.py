@@ -60,6 +60,7 @@ class Row:
     train: list[str] = field(default_factory=list)  # extra train-dp / dagger arguments
     base: str | None = None  # dagger: the row whose policy it starts from; dp: whose it tests
     action_horizon: int | None = None  # actions executed per chunk (None: the policy's)
+    samples: int | None = None  # chunks drawn per decision, the medoid executed (None: 1)
 
 
 SQUARE_SLIDE = {"episodes": 200, "only_success": True}
@@ -700,6 +701,8 @@ def command(row: Row, models: Path) -> str:
     test = f"--episodes {EPISODES} --seed {TEST_SEED}"
     if row.action_horizon is not None:
         test += f" --action-horizon {row.action_horizon}"
+    if row.samples is not None:
+        test += f" --samples {row.samples}"
     if row.method in ("random", "expert"):
         agent = "regions" if row.method == "expert" else "random"
         return f"slide-gym evaluate {agent} --env {row.env_id} {scene} {test}"
@@ -828,6 +831,7 @@ def run(row: Row, models: Path, out: Path) -> dict[str, Any]:
         env_kwargs=env_kwargs,
         progress=True,
         action_horizon=row.action_horizon,
+        samples=row.samples,
     )
     record = {
         "row": row.name,
@@ -836,6 +840,7 @@ def run(row: Row, models: Path, out: Path) -> dict[str, Any]:
         "scene": row.scene,
         "dataset": row.dataset,
         "action_horizon": row.action_horizon,
+        **({"samples": row.samples} if row.samples is not None else {}),
         "training": training,
         "episodes": result["episodes"],
         "successes": result["successes"],

@@ -310,6 +310,42 @@ def test_inference_steps_change_the_sampled_chunk(trained):
             DiffusionPolicy.load(trained, inference_steps=bad)
 
 
+def test_samples_execute_the_medoid_of_the_drawn_chunks(trained):
+    """With K samples the policy executes the drawn chunk whose executed entries lie nearest
+    the other K - 1; with 1 it acts exactly as by default."""
+    env = gym.make(ENV_ID)
+    obs, _ = env.reset(seed=0)
+    env.close()
+    start = np.array([True])
+    default = DiffusionPolicy.load(trained, seed=3)
+    np.testing.assert_array_equal(
+        DiffusionPolicy.load(trained, seed=3, samples=1).predict(obs, episode_start=start)[0],
+        default.predict(obs, episode_start=start)[0],
+    )
+
+    k = 6
+    policy = DiffusionPolicy.load(trained, seed=3, samples=k)
+    action = policy.predict(obs, episode_start=start)[0]
+    # the same draws, by hand: the seeded generator's K chunks for this window
+    model, config = policy.model, policy.config
+    window = torch.from_numpy(np.stack(policy._history[0]))[None]
+    drawn = model.sample(
+        window.repeat_interleave(k, dim=0), torch.Generator().manual_seed(3), None, 1.0
+    )
+    first, count = config.obs_horizon - 1, policy.action_horizon
+    executed = model.normalize_action(drawn)[:, first : first + count].flatten(1).numpy()
+    spread = np.linalg.norm(executed[:, None] - executed[None], axis=-1).sum(axis=1)
+    medoid = int(np.argmin(spread))
+    assert spread[medoid] < np.max(spread)  # the draws differ, so the choice means something
+    expected = chunk_to_actions(drawn[medoid].numpy(), first, count, config.actions)[0]
+    if config.hand == "binary":
+        expected[-1] = 1.0 if expected[-1] > 0.0 else -1.0
+    np.testing.assert_allclose(action, np.clip(expected, -1.0, 1.0), atol=1e-6)
+    for bad in (0, 65, 2.0, True):
+        with pytest.raises(ValueError, match="samples"):
+            DiffusionPolicy.load(trained, samples=bad)
+
+
 def test_runs_under_sb3_evaluate_policy_on_a_vectorised_env(trained):
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.evaluation import evaluate_policy
@@ -342,6 +378,11 @@ def test_evaluate_command_runs_a_policy_folder(trained, capsys):
     assert main([*args, "--inference-steps", "0"]) == 2
     err = capsys.readouterr().err
     assert "inference_steps" in err and len(err.strip().splitlines()) == 1
+    assert main([*args, "--samples", "3"]) == 0
+    assert json.loads(capsys.readouterr().out)["samples"] == 3
+    assert main([*args, "--samples", "0"]) == 2
+    err = capsys.readouterr().err
+    assert "samples" in err and len(err.strip().splitlines()) == 1
 
 
 def test_train_dp_init_starts_from_a_policys_weights(dart, trained, tmp_path, capsys):
@@ -514,6 +555,7 @@ def test_a_dagger_round_of_a_grasp_skill_keeps_its_slide_skill(
         (["evaluate", "regions", "--episodes", "1", "--action-horizon", "4"], "action_horizon"),
         (["evaluate", "regions", "--episodes", "1", "--noise-scale", "0"], "noise_scale"),
         (["evaluate", "regions", "--episodes", "1", "--inference-steps", "5"], "inference_steps"),
+        (["evaluate", "regions", "--episodes", "1", "--samples", "4"], "samples"),
         (
             ["collect", "--episodes", "1", "--action-noise", "-1", "--dataset-id", "t/x-v0"],
             "action_noise",

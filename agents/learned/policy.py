@@ -35,6 +35,8 @@ from slide_gym.planning.result import json_values
 WEIGHTS_FILE = "policy.pt"
 FIRST_FILE = "first.pt"
 CARD_FILE = "policy.json"
+MAX_SAMPLES = 64
+"""The most chunks :class:`DiffusionPolicy` draws per decision (``samples``)."""
 
 
 def is_policy_dir(path: str | Path) -> bool:
@@ -94,6 +96,10 @@ class DiffusionPolicy:
         noise_scale: the initial noise of each chunk's DDIM sampling, scaled (default 1: a
             sample of the learned action distribution; 0 starts every chunk from zero noise,
             a deterministic function of the observations). A number in [0, 1].
+        samples: chunks drawn for each decision (default 1). With more, the one executed is
+            their medoid: the sample whose executed actions lie nearest the others' (summed
+            Euclidean distance in the model's standardised action units), so a stray sample
+            is outvoted while the chosen chunk is still one the model drew. 1..64.
         card: the policy card (``env_id``, ``env_kwargs``, ...), if loaded from a folder.
         first: a sliding skill that acts until the observation shows the slide done
             (:func:`~agents.learned.features.slide_done`); ``model`` acts from then on.
@@ -107,6 +113,7 @@ class DiffusionPolicy:
         inference_steps: int | None = None,
         action_horizon: int | None = None,
         noise_scale: float = 1.0,
+        samples: int = 1,
         card: dict[str, Any] | None = None,
         first: DiffusionModel | None = None,
     ) -> None:
@@ -124,6 +131,7 @@ class DiffusionPolicy:
         self.action_horizon = self.horizons[-1]
         self.inference_steps = self._inference_steps(model.config, inference_steps)
         self.noise_scale = self._noise_scale(noise_scale)
+        self.samples = self._samples(samples)
         self.card = dict(card or {})
         env_kwargs = self.card.get("env_kwargs") or {}
         self.max_steps = (
@@ -177,6 +185,16 @@ class DiffusionPolicy:
         ):
             raise ValueError(f"noise_scale must be a number in [0, 1], got {noise_scale!r}")
         return float(noise_scale)
+
+    @staticmethod
+    def _samples(samples: int) -> int:
+        if (
+            isinstance(samples, bool)
+            or not isinstance(samples, int)
+            or not 1 <= samples <= MAX_SAMPLES
+        ):
+            raise ValueError(f"samples must be a whole number in 1..{MAX_SAMPLES}, got {samples!r}")
+        return samples
 
     @classmethod
     def load(cls, folder: str | Path, **kwargs: Any) -> DiffusionPolicy:
@@ -243,10 +261,8 @@ class DiffusionPolicy:
             need = [i for i in slots if not self._queues[i]]
             if need:
                 window = torch.from_numpy(np.stack([np.stack(self._history[i]) for i in need]))
-                chunks = skill.sample(
-                    window, self.generator, self.inference_steps, self.noise_scale
-                ).numpy()
                 first, count = config.obs_horizon - 1, self.horizons[k]
+                chunks = self._sample_chunks(skill, window, first, count)
                 for i, chunk in zip(need, chunks, strict=True):
                     actions = chunk_to_actions(chunk, first, count, config.actions)
                     if config.hand == "binary":
@@ -255,6 +271,22 @@ class DiffusionPolicy:
         actions = np.stack([self._env_action(i, obs) for i in range(n)])
         actions = np.clip(actions, -1.0, 1.0).astype(np.float32)
         return (actions if batched else actions[0]), state
+
+    def _sample_chunks(
+        self, skill: DiffusionModel, window: torch.Tensor, first: int, count: int
+    ) -> np.ndarray:
+        """One chunk per window: a sample, or the medoid of :attr:`samples` samples by their
+        executed entries ``first:first + count``."""
+        k = self.samples
+        drawn = skill.sample(
+            window.repeat_interleave(k, dim=0), self.generator, self.inference_steps, self.noise_scale
+        )
+        if k == 1:
+            return drawn.numpy()
+        drawn = drawn.view(len(window), k, *drawn.shape[1:])
+        executed = skill.normalize_action(drawn)[:, :, first : first + count].flatten(2)
+        medoid = torch.cdist(executed, executed).sum(dim=-1).argmin(dim=-1)
+        return drawn[torch.arange(len(window)), medoid].numpy()
 
     def _env_action(self, slot: int, obs: dict[str, np.ndarray]) -> np.ndarray:
         """The next queued entry of ``slot`` as an env action (a target: the step toward it)."""

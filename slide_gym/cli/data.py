@@ -242,6 +242,7 @@ def _cmd_evaluate(args: argparse.Namespace) -> int:
             action_horizon=args.action_horizon,
             noise_scale=args.noise_scale,
             inference_steps=args.inference_steps,
+            samples=args.samples,
         )
     if args.split is not None:
         result["split"] = args.split
@@ -492,6 +493,13 @@ def add_parsers(sub: Any) -> None:
         metavar="K",
         help="a train-dp policy's DDIM steps per chunk (default: the policy's, 10); 1..its "
         "training diffusion steps (100)",
+    )
+    p.add_argument(
+        "--samples",
+        type=int,
+        metavar="K",
+        help="a train-dp policy's chunks drawn per decision; it executes their medoid, the one "
+        "nearest the others (default 1: a single sample); 1..64",
     )
     add_randomization(p)
     add_physics(p)

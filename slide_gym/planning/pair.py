@@ -58,6 +58,7 @@ class GraspParams:
     """
 
     depth: float = PINCH_DEPTH  # the fingertips reach this far in from the overhang's outer end
+    least_hold: float = 0.5 * PINCH_DEPTH  # no grasp with less plate than this within reach
     edge_clearance: float = PINCH_EDGE_CLEARANCE  # least gap between fingertips and table edge
     lift: float = 0.08  # fingertip lift off the plate after sliding; the grasp must rise this
     retreat: float = 0.04  # pre-grasp stand-off outside the edge, along the approach
@@ -82,8 +83,9 @@ def grasp_poses(
 
     The grasp frame's z (approach) is horizontal, perpendicular to ``edge`` and points into
     the table; its origin (midway between the fingertips) sits on the edge normal through the
-    overhang's centroid, ``depth`` in from the overhang's outer end and at the plate's
-    mid-height ``z_mid``. None when too little plate lies on that normal.
+    overhang's centroid, ``depth`` in from the overhang's outer end (less where the table's
+    edge is nearer, by ``edge_clearance``) and at the plate's mid-height ``z_mid``. None when
+    less than ``least_hold`` of plate lies within the fingertips' reach on that normal.
     """
     a, b = np.asarray(edge, dtype=float)
     e = (b - a) / np.linalg.norm(b - a)
@@ -98,7 +100,7 @@ def grasp_poses(
         return None
     s_max = float(np.max((hits - a) @ n))
     s_tip = max(s_max - p.depth, p.edge_clearance)
-    if s_max - s_tip < 0.5 * p.depth:
+    if s_max - s_tip < p.least_hold:
         return None
     pos = np.array([*(foot + s_tip * n), z_mid])
     return [(pos, rot) for rot in side_grasp_rotations(n)]

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from slide_gym.planning.api import GraspParams, SlideParams
-from slide_gym.robot.model import ARM_LOWER, ARM_UPPER, MIN_CONTACT_SIZE
+from slide_gym.robot.model import ARM_LOWER, ARM_UPPER, MIN_CONTACT_SIZE, PINCH_DEPTH
 
 EXPERT_PINCH_DEPTH = 0.035
 """How far (m) in from the overhang's outer end the expert's fingertips pinch, where the
@@ -27,7 +27,7 @@ EXPERT_SLIDE_PARAMS = SlideParams(
     centroid_margin=0.015,
     max_rotation=0.8,
     tip_edge_margin=0.01,
-    grasp=GraspParams(retreat=0.06, depth=EXPERT_PINCH_DEPTH),
+    grasp=GraspParams(retreat=0.06 + EXPERT_PINCH_DEPTH - PINCH_DEPTH, depth=EXPERT_PINCH_DEPTH),
     goal_sampling="band",
 )
 """Planner settings the expert uses by default, with margins for the real slide:
@@ -43,8 +43,10 @@ EXPERT_SLIDE_PARAMS = SlideParams(
 - at most 0.8 rad of plate rotation: in larger turns the plate slips about the fingertip;
 - the fingertip at least 1 cm inside the table edge: the fingertip creeps ahead of the plate
   and the tracker shifts it further, and a plate pressed beyond the edge tips over it;
-- the grasp approached from a stand-off 6 cm out, clear of the plate's corners, and pinched
-  up to :data:`EXPERT_PINCH_DEPTH` in from the plate's outer end;
+- the grasp pinched up to :data:`EXPERT_PINCH_DEPTH` in from the plate's outer end, and
+  approached from a stand-off 8 cm out (6 cm clear of the plate's corners for a pinch
+  ``PINCH_DEPTH`` deep, and as much deeper as the pinch is, so the hand turns toward the
+  grasp as far from the plate as it did before the deeper pinch);
 - goal roots from the paper's band C_g (``goal_sampling="band"``), which these margins were
   tuned with: with the plate-first goals, the L on the square table (seed 2, ee_delta
   control) fell off while grasped. Plates too small for the full margins draw plate-first

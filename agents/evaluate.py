@@ -239,9 +239,7 @@ def evaluate(
         raise ValueError(f"max_steps must be a positive integer or None, got {max_steps!r}")
     if env_id not in DICT_ENV_IDS:
         raise ValueError(f"env_id must be one of {', '.join(DICT_ENV_IDS)}, got {env_id!r}")
-    planner, model, card = _open_agent(
-        agent, action_horizon, noise_scale, inference_steps, samples
-    )
+    planner, model, card = _open_agent(agent, action_horizon, noise_scale, inference_steps, samples)
     if planner:
         check_time_budget(time_budget)
     trained_in = card.get("env_id")

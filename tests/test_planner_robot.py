@@ -232,6 +232,13 @@ def test_eq2_and_overhang_hand_worked():
     np.testing.assert_allclose(pos, [0.6, 0.25 + 0.03 - 0.015, 0.002], atol=1e-9)
     np.testing.assert_allclose(rot[:, 2], [0.0, -1.0, 0.0], atol=1e-12)  # into the table
     assert abs(rot[2, 1]) == pytest.approx(1.0)  # palm y vertical: fingers above and below
+    # a deeper pinch stops short of the table's edge face; too little plate in reach: none
+    deep = grasp_poses(ov.outside, ov.edge, 0.002, GraspParams(depth=0.035))
+    assert deep is not None
+    np.testing.assert_allclose(deep[0][0], [0.6, 0.25 + 0.005, 0.002], atol=1e-9)
+    for least, ok in ((0.024, True), (0.026, False)):  # 2.5 cm of plate within reach
+        held = grasp_poses(ov.outside, ov.edge, 0.002, GraspParams(depth=0.035, least_hold=least))
+        assert (held is not None) == ok
     # planar_pose reads (x, y, yaw of X_F)
     tip = np.eye(4)
     tip[:3, :3] = contact_rotation(1.2, 0.9)

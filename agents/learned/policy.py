@@ -279,7 +279,10 @@ class DiffusionPolicy:
         executed entries ``first:first + count``."""
         k = self.samples
         drawn = skill.sample(
-            window.repeat_interleave(k, dim=0), self.generator, self.inference_steps, self.noise_scale
+            window.repeat_interleave(k, dim=0),
+            self.generator,
+            self.inference_steps,
+            self.noise_scale,
         )
         if k == 1:
             return drawn.numpy()

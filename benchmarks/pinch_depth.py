@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import gzip
 import json
 import os
 from pathlib import Path
@@ -26,7 +25,8 @@ from typing import Any
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-PINCHED = ("held", "slipped from the pinch")
+# the sibling script (run from benchmarks/); after the thread setting: it imports NumPy
+from execute_rows import HELD, read_rows  # noqa: E402
 
 
 def named_cases(specs: list[str]) -> list[dict[str, Any]]:
@@ -42,10 +42,8 @@ def named_cases(specs: list[str]) -> list[dict[str, Any]]:
 
 def pinched_failures(path: Path) -> list[dict[str, Any]]:
     """The rows of ``path`` whose plate the pinch held, or lost, without lifting it."""
-    opener = gzip.open if path.suffix == ".gz" else open
-    with opener(path, "rt") as f:
-        rows = [json.loads(line) for line in f if line.strip()]
-    return [r for r in rows if not r["success"] and (r["failure"] or "").startswith(PINCHED)]
+    rows = read_rows(path)
+    return [r for r in rows if not r["success"] and (r["failure"] or "").startswith(HELD)]
 
 
 def main() -> int:

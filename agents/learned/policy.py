@@ -131,7 +131,7 @@ class DiffusionPolicy:
         self.action_horizon = self.horizons[-1]
         self.inference_steps = self._inference_steps(model.config, inference_steps)
         self.noise_scale = self._noise_scale(noise_scale)
-        self.samples = self._samples(samples)
+        self.samples = _whole_number("samples", samples, MAX_SAMPLES)
         self.card = dict(card or {})
         env_kwargs = self.card.get("env_kwargs") or {}
         self.max_steps = (
@@ -147,34 +147,20 @@ class DiffusionPolicy:
 
     @staticmethod
     def _action_horizon(config: DiffusionConfig, action_horizon: int | None) -> int:
-        most = config.pred_horizon - config.obs_horizon + 1
         if action_horizon is None:
             return config.action_horizon
-        if (
-            isinstance(action_horizon, bool)
-            or not isinstance(action_horizon, int)
-            or not (1 <= action_horizon <= most)
-        ):
-            raise ValueError(
-                f"action_horizon must be a whole number in 1..{most} (pred_horizon - "
-                f"obs_horizon + 1), got {action_horizon!r}"
-            )
-        return action_horizon
+        most = config.pred_horizon - config.obs_horizon + 1
+        return _whole_number(
+            "action_horizon", action_horizon, most, "pred_horizon - obs_horizon + 1"
+        )
 
     @staticmethod
     def _inference_steps(config: DiffusionConfig, steps: int | None) -> int | None:
         if steps is None:
             return None
-        if (
-            isinstance(steps, bool)
-            or not isinstance(steps, int)
-            or not 1 <= steps <= config.train_steps
-        ):
-            raise ValueError(
-                f"inference_steps must be a whole number in 1..{config.train_steps} (the "
-                f"model's training diffusion steps), got {steps!r}"
-            )
-        return steps
+        return _whole_number(
+            "inference_steps", steps, config.train_steps, "the model's training diffusion steps"
+        )
 
     @staticmethod
     def _noise_scale(noise_scale: float) -> float:
@@ -185,16 +171,6 @@ class DiffusionPolicy:
         ):
             raise ValueError(f"noise_scale must be a number in [0, 1], got {noise_scale!r}")
         return float(noise_scale)
-
-    @staticmethod
-    def _samples(samples: int) -> int:
-        if (
-            isinstance(samples, bool)
-            or not isinstance(samples, int)
-            or not 1 <= samples <= MAX_SAMPLES
-        ):
-            raise ValueError(f"samples must be a whole number in 1..{MAX_SAMPLES}, got {samples!r}")
-        return samples
 
     @classmethod
     def load(cls, folder: str | Path, **kwargs: Any) -> DiffusionPolicy:
@@ -300,6 +276,15 @@ class DiffusionPolicy:
         assert frame is not None
         arm = step_toward(entry[:-1], frame, obs["arm_qpos"][slot], *self.max_steps)
         return np.concatenate([arm, entry[-1:]])
+
+
+def _whole_number(name: str, value: Any, most: int, why: str = "") -> int:
+    """``value`` if it is an int in 1..``most``; else ValueError naming ``name`` (and why
+    ``most`` is the limit)."""
+    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= most:
+        limit = f" ({why})" if why else ""
+        raise ValueError(f"{name} must be a whole number in 1..{most}{limit}, got {value!r}")
+    return value
 
 
 def _env_action_dim(model: DiffusionModel) -> int:

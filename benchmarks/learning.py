@@ -507,6 +507,24 @@ ROWS = {
             for suffix, seed in (("", []), ("-seed1", ["--seed", "1"]))
         ),
         Row(
+            "dp-ee-square-grasp-stop-anchor-b256-5k",
+            "dp",
+            GRASP,
+            {**SQUARE, **EE, **ANCHOR},
+            "slide-gym/square-grasp-ee-stop-anchor-v1",
+            {**SQUARE_SLIDE, "expert_params": {"stop_overhang": 0.035}},
+            ["--batch-size", "256", "--iterations", "5000", *VAL10],
+        ),
+        Row(
+            "dp-ee-catalog-slide-stop-1000-b256-20k",
+            "dp",
+            SLIDE,
+            {**CATALOG, **EE},
+            "slide-gym/catalog-slide-ee-stop-1000-v1",
+            {"episodes": 1000, "only_success": True, "expert_params": {"stop_overhang": 0.035}},
+            [*CPU_B256, "--iterations", "20000"],
+        ),
+        Row(
             "dp-ee-square-slide-10k-ft",
             "dp",
             SLIDE,

@@ -163,6 +163,29 @@ class PhysicsParams:
                 raise ValueError(f"{name} must be True or False, got {getattr(self, name)!r}")
 
 
+ENV_VERSION_PHYSICS: dict[int, dict[str, Any]] = {0: {}, 1: {"friction_anchor": True}}
+"""What each version of the registered environments sets in :class:`PhysicsParams` before
+the caller's own settings: v0 the engine's defaults (every figure collected before v1);
+v1 friction anchors on the robot's links, which keep a pressed fingertip from creeping over
+small and heavy plates (docs/benchmarks.md, "Friction anchors")."""
+
+
+def versioned_physics(
+    version: int, settings: PhysicsParams | Mapping[str, Any] | None
+) -> PhysicsParams | dict[str, Any]:
+    """The physics of env version ``version`` with ``settings`` on top: a dict of
+    PhysicsParams fields overrides single settings of the version's; a PhysicsParams is
+    taken whole. ValueError for a version that does not exist."""
+    if isinstance(version, bool) or version not in ENV_VERSION_PHYSICS:
+        versions = ", ".join(str(v) for v in ENV_VERSION_PHYSICS)
+        raise ValueError(f"version must be one of {versions}, got {version!r}")
+    if isinstance(settings, PhysicsParams):
+        return settings
+    if settings is not None and not isinstance(settings, Mapping):
+        raise ValueError(f"physics must be a PhysicsParams or a dict, got {settings!r}")
+    return {**ENV_VERSION_PHYSICS[version], **(settings or {})}
+
+
 def physics_overrides(settings: Mapping[str, Any] | None) -> dict[str, Any] | None:
     """``settings`` (PhysicsParams fields other than ``timestep``) checked and in JSON's own
     form (flags as bools, whole numbers as ints), as ``gym.make(..., physics=...)`` takes

@@ -191,7 +191,7 @@ def test_evaluate_warns_when_the_policy_comes_from_another_env(capsys) -> None:
         result = evaluate(_Policy(), SLIDE, episodes=1, max_steps=2)
     assert result["env_kwargs"] == {"object": "square"}
     with warnings.catch_warnings():
-        warnings.simplefilter("error")  # the same env: no warning
+        warnings.simplefilter("error", UserWarning)  # the same env: no warning
         evaluate(_Policy(), GRASP, episodes=1, max_steps=2)
     with one_line_warnings("evaluate"):
         warnings.warn("the policy was trained in A,\n not B", stacklevel=1)

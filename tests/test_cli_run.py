@@ -102,7 +102,7 @@ def test_run_json_prints_one_object_with_the_contract_keys(
             "time_budget": 10.0,
             "video": None,
             "thickness": None,
-            "env_id": "SlideGym/TopSlideGrasp-v0",
+            "env_id": "SlideGym/TopSlideGrasp-v1",
             "object_pose": None,
             "physics": None,
         }
@@ -300,6 +300,21 @@ def test_bench_execute_runs_every_case_once_and_resumes(
     assert main([*argv, "--markdown"]) == 0
     assert len(fake.calls) == 8
     assert "| L | 4 | 100% |" in capsys.readouterr().out
+
+
+def test_bench_execute_cases_name_their_env_and_old_cases_mean_v0(
+    fake: FakeEpisode, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A case names its env even at the default, so a results file from before the v1 ids
+    (whose cases left the then-default v0 out) is not resumed as if it were v1."""
+    out = tmp_path / "execute.jsonl"
+    argv = ["bench", "execute", "--objects", "L", "--tables", "square", "--trials", "1"]
+    assert main([*argv, "--workers", "1", "--out", str(out)]) == 0
+    assert json.loads(out.read_text())["case"]["env_id"] == "SlideGym/TopSlideGrasp-v1"
+    assert fake.calls[-1]["env_id"] == "SlideGym/TopSlideGrasp-v1"
+    old_case = {"object": "L", "table": "square", "seed": 0, "planner": "regions"}
+    bench_execute.execute_case({**old_case, "time_budget": 10.0})
+    assert fake.calls[-1]["env_id"] == "SlideGym/TopSlideGrasp-v0"
 
 
 def test_bench_execute_rejects_bad_input(

@@ -42,10 +42,12 @@ def test_check_env(env_id: str) -> None:
 
 
 def test_env_ids_registered() -> None:
-    assert len(slide_gym.ENV_IDS) == 5
+    assert len(slide_gym.ENV_IDS) == 10
     for env_id in slide_gym.ENV_IDS:
         assert env_id in gym.registry
         assert isinstance(gym.registry[env_id].entry_point, str)
+        assert gym.registry[env_id].kwargs["version"] == int(env_id[-1])
+    assert slide_gym.EXPERT_ENV_ID == "SlideGym/TopSlideGrasp-v1"
 
 
 def _rollout(env: TopSlideEnv, seed: int, n: int) -> tuple[list[dict], list[dict]]:

@@ -28,6 +28,9 @@ TIME_BUDGET = 10.0
 OUT = Path("results/bench_execute.jsonl")
 ENV_ID = EXPERT_ENV_ID
 """The default environment: slide, grasp and lift."""
+UNNAMED_ENV_ID = "SlideGym/TopSlideGrasp-v0"
+"""The env of a case that names none: the cases written before the v1 ids, which left the
+default of their day (v0) out."""
 
 
 def _run_episode() -> Callable[..., EpisodeRecord]:
@@ -65,7 +68,7 @@ def execute_case(case: dict[str, Any]) -> dict[str, Any]:
             time_budget=case["time_budget"],
             scale=case.get("scale", 1.0),
             thickness=case.get("thickness"),
-            env_id=case.get("env_id", ENV_ID),
+            env_id=case.get("env_id", UNNAMED_ENV_ID),
             physics=case.get("physics"),
             **overrides,
         )
@@ -77,7 +80,7 @@ def execute_case(case: dict[str, Any]) -> dict[str, Any]:
             planner=case["planner"],
             reason=err,
             scale=case.get("scale", 1.0),
-            env_id=case.get("env_id", ENV_ID),
+            env_id=case.get("env_id", UNNAMED_ENV_ID),
         )
     return record.to_json_dict()
 
@@ -105,7 +108,8 @@ def bench_execute(
     are not repeated across tables: table ``k`` of ``T`` gets the plates of seeds
     ``seed + k + T * i``, so ``--objects procedural --trials 50`` runs 200 different plates
     on the 4 tables. ``scale`` and ``thickness`` (m) apply to every object. ``env_id``: the
-    environment (``SlideGym/TopSlide-v0``: the slide alone, success = left graspable).
+    environment (default :data:`slide_gym.EXPERT_ENV_ID`; ``SlideGym/TopSlide-v1``: the slide
+    alone, success = left graspable; the ``-v0`` ids: the physics before friction anchors).
     ``backend``, ``address``: where episodes run (:func:`slide_gym.jobs.run_cases`).
     ``expert``: :class:`agents.params.ExpertParams` fields to override (speeds, gains).
     ``physics``: :class:`slide_gym.sim.PhysicsParams` fields to override
@@ -139,8 +143,7 @@ def bench_execute(
     extra = {"scale": float(scale)} if scale != 1.0 else {}
     if thickness is not None:
         extra["thickness"] = float(thickness)
-    if env_id != ENV_ID:
-        extra["env_id"] = env_id
+    extra["env_id"] = env_id  # in every case, so a file resumed under another default reruns
     if expert:
         expert_params(expert)  # a bad name or value fails here, not in every worker
         extra["expert"] = dict(expert)

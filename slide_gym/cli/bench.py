@@ -246,8 +246,9 @@ def _add_execute(what: Any) -> None:
         what,
         "execute",
         "the expert's full episodes (slide, grasp, lift) on every object and table",
-        "Run the planner expert in SlideGym/TopSlideGrasp-v0 for seeded episodes per object "
-        "and table; print lift rates, slide errors and times (resumable, runs in parallel).",
+        "Run the planner expert (in SlideGym/TopSlideGrasp-v1 unless --env) for seeded "
+        "episodes per object and table; print lift rates, slide errors and times (resumable, "
+        "runs in parallel).",
         ["execute --trials 2 --markdown", "execute --objects L,procedural --tables square,round"],
     )
     objects, tables = ",".join(OBJECT_NAMES), ",".join(TABLE_NAMES)
@@ -270,8 +271,8 @@ def _add_execute(what: Any) -> None:
         help="every plate's thickness in m (default: each object's own)",
     )
     env_help = (
-        f"environment, one of {', '.join(DICT_ENV_IDS)} (TopSlide-v0: the slide alone, "
-        "success = left graspable)"
+        f"environment, one of {', '.join(DICT_ENV_IDS)} (TopSlide: the slide alone, "
+        "success = left graspable; v0: the physics before friction anchors)"
     )
     add_env(p, "bench execute", env_help, execute.ENV_ID)
     p.add_argument(

@@ -23,7 +23,7 @@ from slide_gym.envs.scene import RESET_OPTIONS, SceneChoice
 from slide_gym.geometry import ObjectShape, TableShape
 from slide_gym.robot import ARM_LOWER, ARM_UPPER, READY_ARM_Q, WamT42
 from slide_gym.robot.wam_t42 import STATE_SIZE as ROBOT_STATE_SIZE
-from slide_gym.sim import OBJECT_STATE_SIZE, PhysicsParams, Simulation
+from slide_gym.sim import OBJECT_STATE_SIZE, PhysicsParams, Simulation, versioned_physics
 from slide_gym.task import (
     SceneState,
     TaskParams,
@@ -213,7 +213,10 @@ class TopSlideEnv(gym.Env):
     - ``physics``: a :class:`~slide_gym.sim.PhysicsParams` or a dict of its fields other
       than ``timestep`` (``physics_hz`` sets it), e.g. ``{"friction_anchor": True}``: the
       robot's contacts keep their friction anchors (small plates slip less under the
-      fingertip; off by default).
+      fingertip; on in the v1 ids, off in v0). A dict overrides single settings of the
+      version's; a ``PhysicsParams`` replaces them all.
+    - ``version``: the registered id's version, which ``gym.make`` sets (0 or 1): the physics
+      defaults that differ between versions (:data:`~slide_gym.sim.ENV_VERSION_PHYSICS`).
     - ``control_mode``: ``"joint_delta"`` (default) or ``"ee_delta"`` (see Action Space), with
       ``max_tip_step`` (m per control step, default 0.01) and ``max_rot_step`` (rad, 0.05).
     - ``randomization``: ``None`` (default: the fixed world), ``"default"`` (every key over
@@ -247,6 +250,7 @@ class TopSlideEnv(gym.Env):
         num_points: int | None = None,
         randomization: str | dict[str, Any] | None = None,
         physics: PhysicsParams | dict[str, Any] | None = None,
+        version: int = 0,
     ):
         if goal not in ("slide", "grasp"):
             raise ValueError(f"goal must be 'slide' or 'grasp', got {goal!r}")
@@ -285,6 +289,8 @@ class TopSlideEnv(gym.Env):
         self._randomization_rng: np.random.Generator | None = None
 
         self.task = TopSlideTask(task_params)
+        self.version = version
+        physics = versioned_physics(version, physics)
         self.sim = Simulation(render_mode, PhysicsParams.of(physics, timestep=1.0 / physics_hz))
         self.robot = WamT42(self.sim)
         self._hand = self.robot.hand

@@ -15,7 +15,6 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from slide_gym import EXPERT_ENV_ID
 from slide_gym.bench.plan import OBJECTS as PAPER_OBJECTS
 from slide_gym.geometry import TABLE_NAMES
 from slide_gym.jobs import Case
@@ -197,6 +196,8 @@ def _planners(version: str, objects: Sequence[str], tables: Sequence[str], **kw:
     ]
 
 
+EXPERIMENT_ENV_ID = "SlideGym/TopSlideGrasp-v0"
+"""The env of the experiments' expert episodes: the physics their committed rows ran in."""
 AGENT_BUDGET = 10.0
 """The agents' planning seconds per episode (the expert's default)."""
 
@@ -211,7 +212,7 @@ def episode_case(
     time_budget: float,
     dz: list[float] | None = None,
 ) -> Case:
-    """One expert episode on :data:`~slide_gym.EXPERT_ENV_ID` (``dz``, if given, replaces the
+    """One expert episode on :data:`EXPERIMENT_ENV_ID` (``dz``, if given, replaces the
     expert's contact band for every plan of the episode)."""
     return {
         "experiment": experiment,
@@ -222,7 +223,7 @@ def episode_case(
         **({} if dz is None else {"dz": dz}),
         "seed": seed,
         "time_budget": time_budget,
-        "env_id": EXPERT_ENV_ID,
+        "env_id": EXPERIMENT_ENV_ID,
         "code_version": version,
     }
 

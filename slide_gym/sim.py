@@ -78,7 +78,7 @@ class PhysicsParams:
     - ``solver_iterations`` (100) at ``timestep`` while the robot is within
       ``near_distance`` of the object: fewer iterations let the pressed fingertip creep over
       the plate (50: median lag 1.4 cm on a card, 30: cards lost);
-    - ``friction_anchor`` (off by default, so results at the default stay reproducible):
+    - ``friction_anchor`` (off here and in the v0 ids, on in v1: :data:`ENV_VERSION_PHYSICS`):
       PyBullet's ``frictionAnchor`` on every link of the robot. Bullet re-creates its
       friction constraints at each step's contact points, so a pressed fingertip's static
       friction drifts and the fingertip creeps over a light plate; the anchor keeps each

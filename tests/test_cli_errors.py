@@ -198,6 +198,9 @@ def test_evaluate_warns_when_the_policy_comes_from_another_env(capsys) -> None:
     assert capsys.readouterr().err == (
         "slide-gym evaluate: warning: the policy was trained in A, not B\n"
     )
+    with one_line_warnings("evaluate"):  # gymnasium colours its own warnings
+        warnings.warn("\x1b[33mWARN: out of date\x1b[0m", DeprecationWarning, stacklevel=1)
+    assert capsys.readouterr().err == "slide-gym evaluate: warning: WARN: out of date\n"
 
 
 # ---------------------------------------------------------------- the Minari folder

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
+import re
 import sys
 import textwrap
 import warnings
@@ -158,13 +159,17 @@ def add_env(p: argparse.ArgumentParser, command: str, help: str, default: str) -
     add_choice(p, "--env", DICT_ENV_IDS, "env", help, default, "ID", refused)
 
 
+_ANSI_COLOUR = re.compile(r"\x1b\[[0-9;]*m")
+
+
 @contextlib.contextmanager
 def one_line_warnings(command: str) -> Iterator[None]:
     """Within: each warning prints as one line ``slide-gym COMMAND: warning: ...`` on stderr
-    (not Python's two lines with a file name)."""
+    (not Python's two lines with a file name; without the terminal colours gymnasium adds)."""
 
     def show(message: Any, *args: Any, **kwargs: Any) -> None:
-        print(f"slide-gym {command}: warning: {' '.join(str(message).split())}", file=sys.stderr)
+        text = " ".join(_ANSI_COLOUR.sub("", str(message)).split())
+        print(f"slide-gym {command}: warning: {text}", file=sys.stderr)
 
     with warnings.catch_warnings():
         warnings.showwarning = show

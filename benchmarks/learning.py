@@ -516,6 +516,16 @@ ROWS = {
             ["--batch-size", "256", "--iterations", "5000", *VAL10],
         ),
         Row(
+            "dp-ee-square-grasp-stop-anchor-b256-5k-ft",
+            "dp",
+            GRASP,
+            {**SQUARE, **EE, **ANCHOR},
+            "slide-gym/square-grasp-ee-stop-anchor-v1",
+            {**SQUARE_SLIDE, "expert_params": {"stop_overhang": 0.035}},
+            ["--init", "{models}/dp-ee-square-grasp-stop-anchor-b256-5k"]
+            + ["--batch-size", "256", "--iterations", "5000", *VAL10],
+        ),
+        Row(
             "dp-ee-catalog-slide-stop-1000-b256-20k",
             "dp",
             SLIDE,

@@ -515,15 +515,18 @@ ROWS = {
             {**SQUARE_SLIDE, "expert_params": {"stop_overhang": 0.035}},
             ["--batch-size", "256", "--iterations", "5000", *VAL10],
         ),
-        Row(
-            "dp-ee-square-grasp-stop-anchor-b256-5k-ft",
-            "dp",
-            GRASP,
-            {**SQUARE, **EE, **ANCHOR},
-            "slide-gym/square-grasp-ee-stop-anchor-v1",
-            {**SQUARE_SLIDE, "expert_params": {"stop_overhang": 0.035}},
-            ["--init", "{models}/dp-ee-square-grasp-stop-anchor-b256-5k"]
-            + ["--batch-size", "256", "--iterations", "5000", *VAL10],
+        *(
+            Row(  # the anchored square grasp, fine-tuned 5000 iterations at a time
+                f"dp-ee-square-grasp-stop-anchor-b256-5k-{suffix}",
+                "dp",
+                GRASP,
+                {**SQUARE, **EE, **ANCHOR},
+                "slide-gym/square-grasp-ee-stop-anchor-v1",
+                {**SQUARE_SLIDE, "expert_params": {"stop_overhang": 0.035}},
+                ["--init", f"{{models}}/dp-ee-square-grasp-stop-anchor-b256-5k{base}"]
+                + ["--batch-size", "256", "--iterations", "5000", *VAL10],
+            )
+            for suffix, base in (("ft", ""), ("ft2", "-ft"))
         ),
         Row(
             "dp-ee-catalog-slide-stop-1000-b256-20k",

@@ -526,7 +526,13 @@ ROWS = {
                 ["--init", f"{{models}}/dp-ee-square-grasp-stop-anchor-b256-5k{base}"]
                 + ["--batch-size", "256", "--iterations", "5000", *VAL10],
             )
-            for suffix, base in (("ft", ""), ("ft2", "-ft"))
+            for suffix, base in (
+                ("ft", ""),
+                ("ft2", "-ft"),
+                ("ft3", "-ft2"),
+                ("ft4", "-ft3"),
+                ("ft5", "-ft4"),
+            )
         ),
         Row(
             "dp-ee-catalog-slide-stop-1000-b256-20k",

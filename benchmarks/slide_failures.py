@@ -1,17 +1,27 @@
-"""How a learned slide fails: each failed episode of a sliding policy, sorted by what the
+"""How a learned slide or grasp fails: each failed episode of a policy, sorted by what the
 plate and the robot did.
 
     OMP_NUM_THREADS=1 python benchmarks/slide_failures.py models/dp-ee-square-slide-stop-b256 \
         --seeds 20000-20099 --out docs/results/learning/slide_failures.jsonl
 
 Runs the policy (a ``slide-gym train-dp`` folder) in its own env on the reset seeds given
-(validation seeds by default, never the test seeds) and names each failure:
+(validation seeds by default, never the test seeds) and names each failure. A sliding
+policy (``TopSlide``):
 
 - ``pushed off``: the plate fell off the table (the episode ends there);
 - ``never moved``: the time ran out with the plate within 5 mm of where it started;
 - ``graspable, still touched``: the time ran out with the plate graspable (overhang >= u*,
   centroid on the table) but the robot still touching it, so the slide never ended;
 - ``short of u*``: the time ran out with the plate moved but not graspable.
+
+A grasping policy (``TopSlideGrasp``), in the order of the task's phases:
+
+- ``pushed off``: the plate fell before it was ever lifted 1 cm; ``dropped``: after;
+- ``never moved``, ``short of u*``: as for a slide (it was never graspable);
+- ``graspable, never pinched``: the time ran out with the plate graspable and never
+  touched by both fingers at once; ``pushed back``: the same, but the plate was pushed back
+  on the table (no longer graspable at the end);
+- ``pinched, not held``: both fingers touched it, and the time ran out without the lift held.
 
 Prints the counts (also successes per object and table) and appends one JSON line (the
 policy, the seeds, the counts and every episode) to ``--out`` if given.
@@ -36,6 +46,12 @@ from slide_gym.splits import VALIDATION_SEED  # noqa: E402
 MOVED_M = 0.005
 """A plate displaced less than this never moved."""
 
+SLIDE_ENV_IDS = ("SlideGym/TopSlide-v0", "SlideGym/TopSlide-v1")
+GRASP_ENV_IDS = ("SlideGym/TopSlideGrasp-v0", "SlideGym/TopSlideGrasp-v1")
+
+LIFTED_M = 0.01
+"""A plate that fell after being lifted this high was dropped, not pushed off."""
+
 
 def failure_kind(fell_off: bool, moved_m: float, graspable: bool, touching: bool) -> str:
     """The name of a failed slide episode's ending (see the module docstring)."""
@@ -48,18 +64,46 @@ def failure_kind(fell_off: bool, moved_m: float, graspable: bool, touching: bool
     return "short of u*"
 
 
-def run_episode(env: Any, policy: Any, seed: int) -> dict[str, Any]:
-    """One episode of ``policy`` from reset seed ``seed``, with what its ending was."""
+def grasp_failure_kind(
+    fell_off: bool,
+    moved_m: float,
+    ever_graspable: bool,
+    ever_pinched: bool,
+    most_lift_m: float,
+    graspable: bool,
+) -> str:
+    """The name of a failed grasp episode's ending (see the module docstring)."""
+    if fell_off:
+        return "dropped" if most_lift_m >= LIFTED_M else "pushed off"
+    if moved_m < MOVED_M:
+        return "never moved"
+    if not ever_graspable:
+        return "short of u*"
+    if ever_pinched:
+        return "pinched, not held"
+    return "graspable, never pinched" if graspable else "pushed back"
+
+
+def run_episode(env: Any, policy: Any, seed: int, grasp: bool = False) -> dict[str, Any]:
+    """One episode of ``policy`` from reset seed ``seed``, with what its ending was (as a
+    grasp's if ``grasp``)."""
     obs, info = env.reset(seed=seed)
     start = np.asarray(obs["object_pose"][:2], float).copy()
     steps, done, max_overhang, touched = 0, False, 0.0, 0
+    first_graspable = first_pinched = None
+    most_lift = 0.0
     while not done:
         action, _ = policy.predict(obs, episode_start=np.array([steps == 0]))
         obs, _, terminated, truncated, info = env.step(action)
         steps += 1
         done = terminated or truncated
         max_overhang = max(max_overhang, float(info["overhang_m"]))
+        most_lift = max(most_lift, float(info["lift_m"]))
         touched += bool(info["touching_robot"])
+        if first_graspable is None and info["graspable"]:
+            first_graspable = steps
+        if first_pinched is None and info["pinched"]:
+            first_pinched = steps
     moved = float(np.linalg.norm(np.asarray(obs["object_pose"][:2], float) - start))
     success = bool(info["is_success"])
     record = {
@@ -73,10 +117,25 @@ def run_episode(env: Any, policy: Any, seed: int) -> dict[str, Any]:
         "final_overhang_m": round(float(info["overhang_m"]), 4),
         "steps_touching": touched,
     }
-    if not success:
+    if not success and not grasp:
         record["kind"] = failure_kind(
             bool(info["fell_off"]), moved, bool(info["graspable"]), bool(info["touching_robot"])
         )
+    if grasp:
+        record.update(
+            first_graspable_step=first_graspable,
+            first_pinched_step=first_pinched,
+            most_lift_m=round(most_lift, 4),
+        )
+        if not success:
+            record["kind"] = grasp_failure_kind(
+                bool(info["fell_off"]),
+                moved,
+                first_graspable is not None,
+                first_pinched is not None,
+                most_lift,
+                bool(info["graspable"]),
+            )
     return record
 
 
@@ -111,13 +170,18 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as e:
         print(f"slide_failures: {e} (--seeds FIRST-LAST)", file=sys.stderr)
         return 2
-    if policy.card.get("env_id") != "SlideGym/TopSlide-v0":
-        print("slide_failures: the policy must be a sliding one (TopSlide-v0)", file=sys.stderr)
+    env_id = str(policy.card.get("env_id"))
+    if env_id not in SLIDE_ENV_IDS + GRASP_ENV_IDS:
+        print(
+            f"slide_failures: the policy acts in {env_id}; this script names the failures of "
+            f"{', '.join(SLIDE_ENV_IDS + GRASP_ENV_IDS)}",
+            file=sys.stderr,
+        )
         return 2
-    env = gym.make(policy.card["env_id"], **policy.card.get("env_kwargs", {}))
+    env = gym.make(env_id, **policy.card.get("env_kwargs", {}))
     episodes = []
     for seed in range(first, last + 1):
-        episodes.append(run_episode(env, policy, seed))
+        episodes.append(run_episode(env, policy, seed, grasp=env_id in GRASP_ENV_IDS))
         e = episodes[-1]
         print(
             f"seed {seed}: {'success' if e['success'] else e['kind']} after {e['length']} steps "

@@ -825,3 +825,15 @@ def test_slide_failures_names_each_ending(trained, tmp_path, capsys, load_benchm
     }
     assert module.main([str(trained), "--seeds", "20000"]) == 2
     assert "--seeds FIRST-LAST" in capsys.readouterr().err
+
+
+def test_slide_failures_names_each_grasp_ending(load_benchmark):
+    kind = load_benchmark("slide_failures").grasp_failure_kind
+    # fell_off, moved_m, ever_graspable, ever_pinched, most_lift_m, graspable now
+    assert kind(True, 0.2, True, True, 0.05, False) == "dropped"
+    assert kind(True, 0.2, True, False, 0.0, False) == "pushed off"
+    assert kind(False, 0.001, False, False, 0.0, False) == "never moved"
+    assert kind(False, 0.2, False, False, 0.0, False) == "short of u*"
+    assert kind(False, 0.2, True, False, 0.0, True) == "graspable, never pinched"
+    assert kind(False, 0.2, True, False, 0.0, False) == "pushed back"
+    assert kind(False, 0.2, True, True, 0.005, True) == "pinched, not held"

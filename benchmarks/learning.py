@@ -534,14 +534,14 @@ ROWS = {
                 ("ft5", "-ft4"),
             )
         ),
-        Row(  # one 10000-iteration schedule, against the 5000 + 5000 of -5k-ft
-            "dp-ee-square-grasp-stop-anchor-b256-10k",
+        Row(  # one 15000-iteration schedule, against the three 5000s of -5k-ft2
+            "dp-ee-square-grasp-stop-anchor-b256-15k",
             "dp",
             GRASP,
             {**SQUARE, **EE, **ANCHOR},
             "slide-gym/square-grasp-ee-stop-anchor-v1",
             {**SQUARE_SLIDE, "expert_params": {"stop_overhang": 0.035}},
-            [*CPU_B256, "--iterations", "10000"],
+            [*CPU_B256, "--iterations", "15000"],
         ),
         Row(
             "dp-ee-catalog-slide-stop-1000-b256-20k",

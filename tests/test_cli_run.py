@@ -333,12 +333,12 @@ def test_bench_execute_passes_expert_params_to_every_episode(
 ) -> None:
     out = tmp_path / "execute.jsonl"
     argv = ["bench", "execute", "--objects", "L", "--tables", "square", "--trials", "2"]
-    argv += ["--workers", "1", "--out", str(out), "--expert-param", "slide_speed=0.075"]
+    argv += ["--workers", "1", "--out", str(out), "--expert-param", "slide_speed=0.06"]
     assert main([*argv, "--expert-param", "max_replans=3"]) == 0
     params = [c["params"] for c in fake.calls]
-    assert [(p.slide_speed, p.max_replans) for p in params] == [(0.075, 3), (0.075, 3)]
+    assert [(p.slide_speed, p.max_replans) for p in params] == [(0.06, 3), (0.06, 3)]
     assert isinstance(params[0].max_replans, int)
-    assert all(json.loads(line)["case"]["expert"]["slide_speed"] == 0.075 for line in out.open())
+    assert all(json.loads(line)["case"]["expert"]["slide_speed"] == 0.06 for line in out.open())
 
 
 @pytest.mark.parametrize(

@@ -280,7 +280,7 @@ def _add_execute(what: Any) -> None:
         action="append",
         metavar="NAME=VALUE",
         help="override one of the expert's execution settings (agents.params.ExpertParams, "
-        "e.g. slide_speed=0.075); repeatable",
+        "e.g. slide_speed=0.06); repeatable",
     )
     add_physics(p)
     _add_jobs(p, execute.OUT, "first episode seed (trial k uses SEED + k)")

@@ -106,9 +106,23 @@ def _ee_square_dagger(
     )
 
 
-STOP_DAGGER = ["--beta", "0", "--max-steps", "600"]
-"""DAgger on the square slide that stops at 3.5 cm: the learner executes every chunk, and a
-rollout is cut at 600 steps (the expert's 200 demonstrations take 111-429 steps, median 236)."""
+STOP_DAGGER = ["--beta", "0"]
+"""DAgger on the square slide that stops at 3.5 cm: the learner executes every chunk."""
+
+
+DEMO_SPEEDS_BEFORE_ACBCFDF = {
+    "press_speed": 0.02,
+    "slide_speed": 0.05,
+    "grasp_speed": 0.04,
+    "lift_speed": 0.05,
+    "close_s": 0.8,
+    "press_hold_s": 0.3,
+    "settle_s": 0.3,
+    "slide_settle_s": 0.3,
+}
+"""The expert's speeds and settles when the ``*-stop-anchor`` datasets were collected (their
+metadata holds only ``stop_overhang``): DAgger labels for them are given at these, so that
+labels and demonstrations move alike."""
 
 
 def _stop_dagger(
@@ -118,17 +132,23 @@ def _stop_dagger(
     rounds: int = 1,
     base: str = "dp-ee-square-slide-stop",
     physics: dict[str, Any] | None = None,
+    env_id: str = SLIDE,
+    workers: int = 1,
+    max_steps: int = 600,
 ) -> Row:
     """DAgger rounds (100 rollouts each) from ``base`` into ``dataset``; ``physics``: the
-    base's scene physics (e.g. :data:`ANCHOR`), which its dataset's rollouts run in too."""
+    base's scene physics (e.g. :data:`ANCHOR`), which its dataset's rollouts run in too.
+    Rollouts are cut at ``max_steps`` (the square slide's 200 demonstrations take 111-429
+    steps, median 236; the square grasp's 503 on average)."""
     return Row(
         name,
         "dp-dagger",
-        SLIDE,
+        env_id,
         {**SQUARE, **EE, **(physics or {})},
         f"slide-gym/{dataset}",
         {},
-        ["--rounds", str(rounds), "--episodes", "100", "--workers", "1", *STOP_DAGGER, *extra],
+        ["--rounds", str(rounds), "--episodes", "100", "--workers", str(workers)]
+        + [*STOP_DAGGER, "--max-steps", str(max_steps), *extra],
         base=base,
     )
 
@@ -542,6 +562,19 @@ ROWS = {
             "slide-gym/square-grasp-ee-stop-anchor-v1",
             {**SQUARE_SLIDE, "expert_params": {"stop_overhang": 0.035}},
             [*CPU_B256, "--iterations", "15000"],
+        ),
+        _stop_dagger(  # the past-stop gate on the 15k grasp: labels where the learner slid past
+            # every demonstration's stop, i.e. all of its grasp, by an expert at the speeds
+            # and settles the demonstrations were collected with
+            "dp-dagger-past-stop-ee-square-grasp-stop-anchor-b256-15k",
+            "square-grasp-ee-stop-anchor-dagger-past-stop-v1",
+            ("--chunk-labels", "1", "--label-from-overhang", "0.035")
+            + tuple(f"--expert-param={k}={v}" for k, v in DEMO_SPEEDS_BEFORE_ACBCFDF.items()),
+            base="dp-ee-square-grasp-stop-anchor-b256-15k",
+            physics=ANCHOR,
+            env_id=GRASP,
+            workers=2,
+            max_steps=900,
         ),
         Row(
             "dp-ee-catalog-slide-stop-1000-b256-20k",

@@ -133,10 +133,11 @@ class ExpertParams:
     takeovers a few steps apart can disagree; the straight one aims where the state says,
     which DAgger's labels need.
 
-    The press, slide, final-approach and lift speeds are 1.5-1.6x, and the closing time
-    0.75x, those of the figures measured before the quicker defaults (CHANGELOG: 0.02,
-    0.05, 0.04 and 0.05 m/s, 0.8 s; pass them as ``--expert-param`` to reproduce such a
-    figure). They bring the median simulated episode from about 22 s to about 18 s
+    The press, slide, final-approach and lift speeds are 1.5-1.6x, the closing time 0.75x,
+    and the holds after the press, after the slide and at the grasp's stand-off half or a
+    third, those of the figures measured before the quicker defaults (CHANGELOG: 0.02, 0.05,
+    0.04 and 0.05 m/s, 0.8 s; 0.3 s each; pass them as ``--expert-param`` to reproduce such a
+    figure). They bring the median simulated episode from about 22 s to under 18 s
     (docs/benchmarks.md, Every set at one commit). The lift-off and free-space speeds stay:
     a lift-off at 8 cm/s let 25 slid plates fall in six sets where 5 cm/s let 10 fall, and
     free moves at 1.5 rad/s knocked plates off the table in the press and the transfer.
@@ -146,14 +147,14 @@ class ExpertParams:
     ramp_s: float = 0.4  # s over which free-space legs, the slide and the lift speed up and down
     pre_contact_height: float = 0.03  # m above the press point before pressing
     press_speed: float = 0.03  # m/s fingertip speed while pressing
-    press_hold_s: float = 0.3
+    press_hold_s: float = 0.15  # s pressed before the slide starts
     slide_speed: float = 0.075  # m/s fingertip speed along the slide
     lift_off_speed: float = 0.05  # m/s the fingertip rises off the plate after the slide
     transfer_speed: float = 1.0  # rad/s
     transfer_tip_speed: float = 0.4  # m/s of the grasp frame during the transfer
     lift_off_height: float = 0.06  # m the fingertip rises off the plate after the slide
     grasp_iterations: int = 100  # fallback transfer iterations when re-aiming the grasp
-    settle_s: float = 0.3  # s at the stand-off pose: the arm settles before the approach
+    settle_s: float = 0.1  # s at the stand-off pose: the arm settles before the approach
     grasp_speed: float = 0.06  # m/s on the final approach to the grasp
     close_s: float = 0.6  # hand closing time before lifting
     lift: float = 0.12  # m the grasp frame rises
@@ -161,7 +162,7 @@ class ExpertParams:
     tip_gain: float = 0.3  # per control step, integral gain of the fingertip loop
     object_gain: float = 0.02  # per control step, integral gain of the plate-pose loop
     max_object_correction: float = 0.03  # m
-    slide_settle_s: float = 0.3  # s at the slide's end: the plate comes to rest, still pressed
+    slide_settle_s: float = 0.15  # s at the slide's end: the plate comes to rest, still pressed
     contact_deflection: float = 0.05  # rad of finger A's proximal joint: it is pressing
     max_correction: float = 0.04  # m, largest Cartesian correction of the fingertip
     max_replans: int = 2

@@ -287,3 +287,21 @@ def test_physics_settings_reach_the_env_and_are_kept_in_the_identity():
     assert "physics" not in plain.to_json() and "physics" not in plain.env_kwargs()  # old ids
     with pytest.raises(ValueError, match="allowed: solver_iterations"):
         CollectConfig(env_id=config.env_id, physics={"anchor": 1})
+
+
+def test_the_collecting_experts_changed_defaults_come_back_from_the_metadata(collected):
+    """A dataset collected before a default changed gives back the expert that collected it:
+    what its metadata recorded beyond the config's own overrides, which still win."""
+    from agents.params import ExpertParams
+    from slide_gym.datasets.config import CollectConfig
+
+    meta = dataset_metadata(collected)
+    assert CollectConfig.from_metadata(meta) == CollectConfig.from_json(meta["config"])
+    older = json.loads(json.dumps(meta))
+    older["agent"]["expert_params"] |= {"slide_speed": 0.05, "settle_s": 0.3, "max_replans": 1}
+    older["config"]["expert_params"] = {"settle_s": 0.2}
+    config = CollectConfig.from_metadata(older)
+    assert config.expert_params == {"slide_speed": 0.05, "max_replans": 1.0, "settle_s": 0.2}
+    params = config.agent_kwargs()["params"]
+    assert (params.slide_speed, params.settle_s, params.max_replans) == (0.05, 0.2, 1)
+    assert params.grasp_posture == ExpertParams().grasp_posture

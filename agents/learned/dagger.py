@@ -343,7 +343,7 @@ def run_dagger(
     if base_id == dataset_id:
         raise ValueError(f"--dataset-id must differ from the policy's dataset {base_id!r}")
     base = load(base_id)
-    collect = CollectConfig.from_json(base.storage.metadata["slide_gym"]["config"])
+    collect = CollectConfig.from_metadata(base.storage.metadata["slide_gym"])
     if config.expert_params:
         merged = {**(collect.expert_params or {}), **config.expert_params}
         collect = dataclasses.replace(collect, expert_params=merged)

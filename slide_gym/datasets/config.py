@@ -217,6 +217,29 @@ class CollectConfig:
         fields = {f.name for f in dataclasses.fields(cls)}
         return cls(**{k: v for k, v in data.items() if k in fields})
 
+    @classmethod
+    def from_metadata(cls, metadata: dict[str, Any]) -> CollectConfig:
+        """The config that collected a dataset (its ``slide_gym`` metadata), whose
+        ``expert_params`` also hold every numeric expert setting recorded there that differs
+        from today's default: an expert built from it acts as the one that collected the
+        dataset, even where a default changed since (the quicker defaults of ``acbcfdf``).
+        ``grasp_posture``, not a number, keeps today's value."""
+        from agents.params import ExpertParams
+
+        config = cls.from_json(metadata["config"])
+        recorded = metadata.get("agent", {}).get("expert_params", {})
+        defaults = dataclasses.asdict(ExpertParams())
+        changed = {
+            name: float(value)
+            for name, value in recorded.items()
+            if isinstance(value, (int, float)) and name in defaults and value != defaults[name]
+        }
+        if not changed:
+            return config
+        return dataclasses.replace(
+            config, expert_params={**changed, **(config.expert_params or {})}
+        )
+
     def differences(self, other: CollectConfig) -> list[str]:
         """``"name: mine != theirs"`` for every field that differs."""
         a, b = dataclasses.asdict(self), dataclasses.asdict(other)

@@ -5,7 +5,8 @@
 did) into the record's ``failure``, which is ``None`` exactly when the episode succeeded.
 In order of precedence the causes are:
 
-- ``the plate fell off the table in phase X``;
+- ``the plate fell off the table in phase X`` (``after the expert gave up`` if it had: the
+  row's ``gave_up`` says why);
 - the expert's reason for giving up (``plan infeasible: ...``, ``planning budget used up
   ...``, ``not graspable after the slide ...``, ``no IK solution ...``);
 - ``out of episode time in phase Y``, while the expert was still at work;
@@ -101,6 +102,8 @@ def failure_cause(
     if success:
         return None
     if outcome.fell_off:
+        if phase == "failed":
+            return "the plate fell off the table after the expert gave up"
         return f"the plate fell off the table in phase {phase}"
     if gave_up:
         return gave_up

@@ -76,6 +76,9 @@ def test_precedence_fell_off_then_gave_up_then_time() -> None:
     assert failure_cause(False, outcome, "transfer", gave_up) == (
         "the plate fell off the table in phase transfer"
     )
+    assert failure_cause(False, outcome, "failed", gave_up) == (
+        "the plate fell off the table after the expert gave up"
+    )
 
 
 def test_the_slide_causes() -> None:

@@ -137,8 +137,9 @@ class ExpertParams:
     and the holds after the press, after the slide and at the grasp's stand-off half or a
     third, those of the figures measured before the quicker defaults (CHANGELOG: 0.02, 0.05,
     0.04 and 0.05 m/s, 0.8 s; 0.3 s each; pass them as ``--expert-param`` to reproduce such a
-    figure). They bring the median simulated episode from about 22 s to under 18 s
-    (docs/benchmarks.md, Every set at one commit). The lift-off and free-space speeds stay:
+    figure). They bring the median simulated episode from about 22 s to 17.0-17.9 s on five
+    of the six grasp sets and 18.1 s at half scale (docs/benchmarks.md, Every set at one
+    commit). The lift-off and free-space speeds stay:
     a lift-off at 8 cm/s let 25 slid plates fall in six sets where 5 cm/s let 10 fall, and
     free moves at 1.5 rad/s knocked plates off the table in the press and the transfer.
     """

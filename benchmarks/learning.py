@@ -120,9 +120,10 @@ DEMO_SPEEDS_BEFORE_ACBCFDF = {
     "settle_s": 0.3,
     "slide_settle_s": 0.3,
 }
-"""The expert's speeds and settles when the ``*-stop-anchor`` datasets were collected (their
-metadata holds only ``stop_overhang``): DAgger labels for them are given at these, so that
-labels and demonstrations move alike."""
+"""The expert's speeds and holds when the ``*-stop-anchor`` datasets were collected, before
+the quicker defaults: DAgger labels for them are given at these, so that labels and
+demonstrations move alike. ``dagger`` now takes them from the dataset's metadata
+(``CollectConfig.from_metadata``); the row that passes them explicitly ran before that."""
 
 
 def _stop_dagger(

@@ -110,22 +110,6 @@ STOP_DAGGER = ["--beta", "0"]
 """DAgger on the square slide that stops at 3.5 cm: the learner executes every chunk."""
 
 
-DEMO_SPEEDS_BEFORE_ACBCFDF = {
-    "press_speed": 0.02,
-    "slide_speed": 0.05,
-    "grasp_speed": 0.04,
-    "lift_speed": 0.05,
-    "close_s": 0.8,
-    "press_hold_s": 0.3,
-    "settle_s": 0.3,
-    "slide_settle_s": 0.3,
-}
-"""The expert's speeds and holds when the ``*-stop-anchor`` datasets were collected, before
-the quicker defaults: DAgger labels for them are given at these, so that labels and
-demonstrations move alike. ``dagger`` now takes them from the dataset's metadata
-(``CollectConfig.from_metadata``); the row that passes them explicitly ran before that."""
-
-
 def _stop_dagger(
     name: str,
     dataset: str,
@@ -565,12 +549,11 @@ ROWS = {
             [*CPU_B256, "--iterations", "15000"],
         ),
         _stop_dagger(  # the past-stop gate on the 15k grasp: labels where the learner slid past
-            # every demonstration's stop, i.e. all of its grasp, by an expert at the speeds
-            # and settles the demonstrations were collected with
+            # every demonstration's stop, i.e. all of its grasp, by the expert that collected
+            # the demonstrations (its speeds and holds, from the dataset's metadata)
             "dp-dagger-past-stop-ee-square-grasp-stop-anchor-b256-15k",
             "square-grasp-ee-stop-anchor-dagger-past-stop-v1",
-            ("--chunk-labels", "1", "--label-from-overhang", "0.035")
-            + tuple(f"--expert-param={k}={v}" for k, v in DEMO_SPEEDS_BEFORE_ACBCFDF.items()),
+            ("--chunk-labels", "1", "--label-from-overhang", "0.035"),
             base="dp-ee-square-grasp-stop-anchor-b256-15k",
             physics=ANCHOR,
             env_id=GRASP,

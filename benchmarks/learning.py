@@ -173,6 +173,20 @@ training too: 10000 iterations in 37-39 minutes, 20000 in 79), validated every 5
 ANCHOR_SEEDS = [("", []), ("-seed1", ["--seed", "1"]), ("-seed2", ["--seed", "2"])]
 """The anchored batch-256 bases' training seeds (row suffix, ``train-dp`` options); their
 DAgger rows and controls train at the base's seed."""
+GRASP_DEMO_EXPERT = {
+    "press_speed": 0.02,
+    "press_hold_s": 0.3,
+    "slide_speed": 0.05,
+    "settle_s": 0.3,
+    "grasp_speed": 0.04,
+    "close_s": 0.8,
+    "lift_speed": 0.05,
+    "slide_settle_s": 0.3,
+    "stop_overhang": 0.035,
+}
+"""The expert settings that collected ``square-grasp-ee-stop-anchor-v1`` (its speeds and holds
+from before the quicker defaults of ``acbcfdf`` and ``dd3943b``, and the stop): a larger
+collection with them changes only the number of demonstrations."""
 OFFSETS = ["--actions", "offsets"]
 """The chunks of the rows trained before per-step deltas became the default."""
 ROWS = {
@@ -560,6 +574,18 @@ ROWS = {
             workers=2,
             max_steps=900,
         ),
+        *(
+            Row(  # five times the demonstrations of -15k, collected by the same expert
+                "dp-ee-square-grasp-stop-anchor-1000-b256-15k" + suffix,
+                "dp",
+                GRASP,
+                {**SQUARE, **EE, **ANCHOR},
+                "slide-gym/square-grasp-ee-stop-anchor-1000-v1",
+                {"episodes": 1000, "only_success": True, "expert_params": GRASP_DEMO_EXPERT},
+                [*CPU_B256, "--iterations", "15000", *seed],
+            )
+            for suffix, seed in (("", []), ("-seed1", ["--seed", "1"]))
+        ),
         Row(
             "dp-ee-catalog-slide-stop-1000-b256-20k",
             "dp",
@@ -821,14 +847,14 @@ def _rounds(row: Row) -> int:
     return int(row.train[row.train.index("--rounds") + 1]) if "--rounds" in row.train else 2
 
 
-def _collect(row: Row) -> None:
+def _collect(row: Row, workers: int = 1) -> None:
     from slide_gym.datasets.collect import collect
     from slide_gym.datasets.config import CollectConfig
 
     c = dict(row.collect)
     episodes = c.pop("episodes")
     config = CollectConfig(env_id=row.env_id, **row.scene, **c)
-    collect(config, episodes, str(row.dataset), workers=1)
+    collect(config, episodes, str(row.dataset), workers=workers)
 
 
 def _cli(*args: str) -> None:
@@ -839,7 +865,9 @@ def _cli(*args: str) -> None:
         raise SystemExit(f"slide-gym {' '.join(args)} exited with {code}")
 
 
-def run(row: Row, models: Path, out: Path) -> dict[str, Any]:
+def run(row: Row, models: Path, out: Path, workers: int = 1) -> dict[str, Any]:
+    """Collect the row's demonstrations (``workers`` episodes at a time) unless its dataset is
+    complete, train unless its policy is, test it, and append the record to ``rows.jsonl``."""
     from agents.evaluate import evaluate
     from slide_gym.version import code_version
 
@@ -850,7 +878,7 @@ def run(row: Row, models: Path, out: Path) -> dict[str, Any]:
         agent = "random" if row.method == "random" else "regions"
     else:
         if row.method != "dp-dagger":
-            _collect(_trained(row))
+            _collect(_trained(row), workers)
         path = models / (row.base if row.method == "dp" and row.base else row.name)
         if row.method == "bc":
             zip_path = path.with_suffix(".zip")
@@ -1161,6 +1189,7 @@ def main() -> int:
     p.add_argument("rows", nargs="+", choices=sorted(ROWS), metavar="ROW")
     p.add_argument("--models", type=Path, default=Path("models"))
     p.add_argument("--out", type=Path, default=OUT)
+    p.add_argument("--workers", type=int, default=1, help="parallel episodes while collecting")
     p = sub.add_parser("horizon", help="a row's policy on validation seeds at action horizons")
     p.add_argument("row", choices=sorted(ROWS), metavar="ROW")
     p.add_argument("--horizons", type=int, nargs="+", default=[8, 4, 2], metavar="K")
@@ -1185,7 +1214,7 @@ def main() -> int:
             print(json.dumps(fit(path, args.dataset, args.windows, args.at_start)))
     elif args.cmd == "run":
         for name in args.rows:
-            record = run(ROWS[name], args.models, args.out)
+            record = run(ROWS[name], args.models, args.out, args.workers)
             print(json.dumps({k: record[k] for k in ("row", "success_rate", "ci95")}))
     else:
         print(report(args.out))

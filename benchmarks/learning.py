@@ -185,8 +185,10 @@ GRASP_DEMO_EXPERT = {
     "stop_overhang": 0.035,
 }
 """The expert settings that collected ``square-grasp-ee-stop-anchor-v1`` (its speeds and holds
-from before the quicker defaults of ``acbcfdf`` and ``dd3943b``, and the stop): a larger
-collection with them changes only the number of demonstrations."""
+from before the quicker defaults of ``acbcfdf`` and ``dd3943b``, and the stop), as
+``CollectConfig.from_metadata`` reads them from that dataset; written out so that the row's
+command names them and a fresh machine needs no copy of that dataset. A larger collection
+with them changes only the number of demonstrations."""
 OFFSETS = ["--actions", "offsets"]
 """The chunks of the rows trained before per-step deltas became the default."""
 ROWS = {

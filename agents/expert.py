@@ -386,6 +386,8 @@ class SlideGraspExpert:
         assert self.obj is not None
         strict = plate_slide_params(self.slide_params, self.params, self.obj.circumradius)
         strict = thin_plate_slide_params(strict, self.obj.thickness)
+        if self.params.nearest_goal_edge:
+            strict = dataclasses.replace(strict, goal_edge="nearest")
         self.centroid_margin = strict.centroid_margin
         self.small_plate = is_small_plate(self.slide_params, self.params, self.obj.circumradius)
         self.grasp_u_star = plate_grasp_u_star(self.params, strict, self.small_plate)

@@ -133,6 +133,14 @@ class ExpertParams:
     takeovers a few steps apart can disagree; the straight one aims where the state says,
     which DAgger's labels need.
 
+    ``nearest_goal_edge`` (bool; ``1``/``0`` on the command line): plan every slide toward
+    the reachable stretch of the table's outline nearest the plate (``SlideParams.goal_edge
+    = "nearest"``) instead of toward any. Which side a plate goes is then a function of where
+    it lies, not of the search's luck: the 200 square grasps of
+    ``slide-gym/square-grasp-ee-stop-anchor-v1`` went to the +y or the -y side of the square
+    table half and half wherever the plate started (100 of 200 agreed with the sign of its
+    start y), a choice a learner cannot see.
+
     The press, slide, final-approach and lift speeds are 1.5-1.6x, the closing time 0.75x,
     and the holds after the press, after the slide and at the grasp's stand-off half or a
     third, those of the figures measured before the quicker defaults (CHANGELOG: 0.02, 0.05,
@@ -176,14 +184,15 @@ class ExpertParams:
     grasp_posture: tuple[float, ...] | None = GRASP_POSTURE
     stop_overhang: float | None = None
     straight_slide_on: bool = False
+    nearest_goal_edge: bool = False
 
     def __post_init__(self) -> None:
         for name, value in dataclasses.asdict(self).items():
             if name == "grasp_posture":
                 _check_posture(value)
-            elif name == "straight_slide_on":
+            elif name in ("straight_slide_on", "nearest_goal_edge"):
                 if not isinstance(value, bool):
-                    raise ValueError(f"straight_slide_on must be True or False (1 or 0): {value!r}")
+                    raise ValueError(f"{name} must be True or False (1 or 0): {value!r}")
             elif name == "stop_overhang" and value is None:
                 continue
             elif name in _COUNTS:

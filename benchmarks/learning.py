@@ -188,7 +188,8 @@ GRASP_DEMO_EXPERT = {
 from before the quicker defaults of ``acbcfdf`` and ``dd3943b``, and the stop), as
 ``CollectConfig.from_metadata`` reads them from that dataset; written out so that the row's
 command names them and a fresh machine needs no copy of that dataset. A larger collection
-with them changes only the number of demonstrations."""
+with them changes only the number of demonstrations. ``square-slide-ee-stop-anchor-v1`` was
+collected with the same settings."""
 OFFSETS = ["--actions", "offsets"]
 """The chunks of the rows trained before per-step deltas became the default."""
 ROWS = {
@@ -588,16 +589,17 @@ ROWS = {
             )
             for suffix, seed in (("", []), ("-seed1", ["--seed", "1"]))
         ),
-        Row(  # the 1000 demonstrations with ManiSkill's widths: is the small net too small?
-            # (0.6 s per iteration on one core: 8000 fit the 90 minutes, validated every 4000)
-            "dp-ee-square-grasp-stop-anchor-1000-wide-b256-8k",
-            "dp",
-            GRASP,
-            {**SQUARE, **EE, **ANCHOR},
-            "slide-gym/square-grasp-ee-stop-anchor-1000-v1",
-            {"episodes": 1000, "only_success": True, "expert_params": GRASP_DEMO_EXPERT},
-            ["--batch-size", "256", "--channels", "64", "128", "256"]
-            + ["--iterations", "8000", "--val-every", "4000"],
+        *(
+            Row(  # demonstrations that slide toward the side the plate lies on (not either)
+                f"dp-ee-square-{task}-stop-anchor-nearest-b256-10k",
+                "dp",
+                env_id,
+                {**SQUARE, **EE, **ANCHOR},
+                f"slide-gym/square-{task}-ee-stop-anchor-nearest-v1",
+                {**SQUARE_SLIDE, "expert_params": {**GRASP_DEMO_EXPERT, "nearest_goal_edge": 1}},
+                [*CPU_B256, "--iterations", "10000"],
+            )
+            for task, env_id in (("grasp", GRASP), ("slide", SLIDE))
         ),
         Row(
             "dp-ee-catalog-slide-stop-1000-b256-20k",

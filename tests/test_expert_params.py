@@ -20,6 +20,7 @@ from agents.params import (
     thin_plate_slide_params,
 )
 from agents.trajectory import Segment, time_segment
+from slide_gym.planning.params import SlideParams
 from slide_gym.robot.model import MIN_CONTACT_SIZE
 
 
@@ -100,6 +101,15 @@ def test_stop_overhang_is_off_by_default_and_checked() -> None:
     for bad in (0.0, -0.01, float("nan"), float("inf")):
         with pytest.raises(ValueError, match="stop_overhang"):
             ExpertParams(stop_overhang=bad)
+
+
+def test_nearest_goal_edge_is_a_switch_off_by_default() -> None:
+    assert ExpertParams().nearest_goal_edge is False
+    assert expert_params({"nearest_goal_edge": 1.0}).nearest_goal_edge is True
+    with pytest.raises(ValueError, match="nearest_goal_edge must be True or False"):
+        expert_params({"nearest_goal_edge": 2.0})
+    with pytest.raises(ValueError, match="goal_edge must be one of any, nearest"):
+        SlideParams(goal_edge="far")
 
 
 def test_straight_slide_on_is_a_switch_off_by_default() -> None:

@@ -7,7 +7,8 @@ import shapely
 
 from slide_gym.geometry import get_table, overhang, transform_polygon
 from slide_gym.planning.api import TopSlideProblem
-from slide_gym.planning.grasp_reach import _stretches, reachable_stretches
+from slide_gym.planning.grasp_reach import _stretches, nearest_stretches, reachable_stretches
+from slide_gym.planning.params import SlideParams
 from slide_gym.planning.plate_goals import PlateGoalPoses
 from slide_gym.task import scene_object
 
@@ -60,3 +61,24 @@ def test_plate_goals_aim_only_at_reachable_stretches() -> None:
         assert ov.u >= p.u_star
         (x0, _), (x1, _) = np.asarray(ov.edge)
         assert x0 == x1 == 0.35, "the plate overhangs the near edge, where grasps reach"
+
+
+def test_nearest_goal_edge_keeps_the_reachable_corner_on_the_plates_side() -> None:
+    """The square table's side grasps reach two corners near the robot (each an edge stretch
+    and a piece of the near edge); ``goal_edge="nearest"`` keeps the one on the plate's side,
+    so goal poses and the goal band lie there alone."""
+    square = get_table("square")
+    every = reachable_stretches(square.polygon, square.height + 0.001, 0.005)
+    assert len(every) == 4
+    for y in (0.1, -0.1, 0.01):
+        kept = nearest_stretches(every, np.array([0.6, y]))
+        assert len(kept) == 2, "one corner: the side edge's stretch and the near edge's"
+        assert all(np.sign(p[1]) == np.sign(q[1]) == np.sign(y) for p, q, _ in kept)
+        problem = TopSlideProblem(
+            "square", "square", [0.6, y, 0.3], SlideParams(goal_edge="nearest")
+        )
+        xmin, ymin, xmax, ymax = problem.goal_band.bounds
+        assert (ymin > 0.0) if y > 0 else (ymax < 0.0)
+    assert nearest_stretches([], np.zeros(2)) == []
+    default = TopSlideProblem("square", "square", [0.6, 0.1, 0.3])
+    assert len(default.grasp_stretches) == 4, "the paper's default: every reachable stretch"

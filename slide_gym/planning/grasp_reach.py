@@ -50,6 +50,27 @@ def reachable_stretches(
     return list(_stretches(*key))
 
 
+def nearest_stretches(
+    stretches: list[tuple[np.ndarray, np.ndarray, np.ndarray]], point: np.ndarray
+) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """The stretch of ``stretches`` nearest ``point`` (x, y), with every stretch joined to it
+    end to end (a reachable corner is one piece): where :attr:`SlideParams.goal_edge`
+    ``"nearest"`` lets a plate go. Empty for no stretches."""
+    if not stretches:
+        return []
+    xy = shapely.points(np.asarray(point, dtype=float)[:2])
+    segments = [shapely.LineString([p, q]) for p, q, _ in stretches]
+    first = int(np.argmin([shapely.distance(xy, s) for s in segments]))
+    kept, frontier = {first}, [first]
+    while frontier:
+        i = frontier.pop()
+        for j, s in enumerate(segments):
+            if j not in kept and shapely.distance(segments[i], s) < 1e-6:
+                kept.add(j)
+                frontier.append(j)
+    return [stretches[i] for i in sorted(kept)]
+
+
 @functools.lru_cache(maxsize=64)
 def _stretches(ring_bytes: bytes, grasp_z: float, offset: float) -> tuple:
     ring = np.frombuffer(ring_bytes).reshape(-1, 2)

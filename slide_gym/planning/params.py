@@ -17,6 +17,8 @@ PROJECTIONS: tuple[str, ...] = ("steps", "nodes", "ompl", "orientation")
 """The values of :attr:`SlideParams.projection` (the first is the default)."""
 GOAL_SAMPLINGS: tuple[str, ...] = ("plate", "band")
 """The values of :attr:`SlideParams.goal_sampling` (the first is the default)."""
+GOAL_EDGES: tuple[str, ...] = ("any", "nearest")
+"""The values of :attr:`SlideParams.goal_edge` (the first is the default)."""
 
 
 @dataclass(frozen=True)
@@ -65,6 +67,14 @@ class SlideParams:
     on the table, and the fingertip from the inverse of Eq. 2 for the latest start root
     (:mod:`slide_gym.planning.plate_goals`); ``"band"`` is the paper's C_g (Eq. 4): the
     contact anywhere in the band P_g with any yaw.
+
+    ``goal_edge`` (one of :data:`GOAL_EDGES`) chooses where goals may lie: ``"any"`` (default,
+    the paper) along every stretch of the outline with a reachable side grasp; ``"nearest"``
+    only along the one nearest the plate's start centroid and those joined to it end to end
+    (:func:`~slide_gym.planning.grasp_reach.nearest_stretches`; needs
+    ``goal_band_reachable``). With ``"any"`` a plate in the middle of the square table is
+    slid toward either side, whichever the search meets first; with ``"nearest"`` the side
+    is a function of where the plate lies, which a learner imitating the slide can see.
     """
 
     beta0: float = 0.9
@@ -89,6 +99,7 @@ class SlideParams:
     distance_weights: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0, 0.6, 0.6, 0.3)
     projection: str = "steps"  # how the extension keeps to the manifold (PROJECTIONS)
     goal_sampling: str = "plate"  # how goal roots are drawn (GOAL_SAMPLINGS)
+    goal_edge: str = "any"  # where goals may lie (GOAL_EDGES)
     ik: IKParams = field(default_factory=IKParams)
     grasp: GraspParams = field(default_factory=GraspParams)
 
@@ -139,6 +150,12 @@ class SlideParams:
                 f"goal_sampling must be one of {', '.join(GOAL_SAMPLINGS)}, "
                 f"got {self.goal_sampling!r}"
             )
+        if not isinstance(self.goal_edge, str) or self.goal_edge not in GOAL_EDGES:
+            raise ValueError(
+                f"goal_edge must be one of {', '.join(GOAL_EDGES)}, got {self.goal_edge!r}"
+            )
+        if self.goal_edge == "nearest" and not self.goal_band_reachable:
+            raise ValueError('goal_edge="nearest" needs goal_band_reachable=True')
         w = np.asarray(self.distance_weights, dtype=float)
         if w.shape != (7,) or not (np.isfinite(w).all() and (w > 0).all()):
             raise ValueError("distance_weights must be 7 finite positive numbers")

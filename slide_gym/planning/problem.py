@@ -10,7 +10,7 @@ import numpy as np
 import shapely
 
 from slide_gym.geometry import ObjectShape, TableShape, get_object, get_table, transform_points
-from slide_gym.planning.grasp_reach import reachable_stretches
+from slide_gym.planning.grasp_reach import nearest_stretches, reachable_stretches
 from slide_gym.planning.params import SlideParams
 from slide_gym.planning.regions import goal_band
 from slide_gym.task import check_scene, validate_start_pose
@@ -83,12 +83,16 @@ class TopSlideProblem:
             else None
         )
         """The outline's stretches ``(p, q, outward normal)`` with a reachable side grasp
-        (:mod:`~slide_gym.planning.grasp_reach`); None: every edge, unchecked."""
+        (:mod:`~slide_gym.planning.grasp_reach`), only the nearest ones with ``goal_edge``
+        ``"nearest"``; None: every edge, unchecked."""
+        if self.grasp_stretches is not None and self.params.goal_edge == "nearest":
+            self.grasp_stretches = nearest_stretches(self.grasp_stretches, self.start_pose[:2])
         self.goal_band = goal_band(
             self.table.polygon,
             self.params.goal_band_width,
             grasp_z if self.params.goal_band_reachable else None,
             offset,
+            stretches=self.grasp_stretches,
         )
         if margin > 0:
             self.goal_band = self.goal_band.intersection(self.contact_area)

@@ -118,6 +118,7 @@ def goal_band(
     width: float,
     grasp_height: float | None = None,
     grasp_offset: float = 0.015,
+    stretches: list[tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None,
 ) -> shapely.Geometry:
     """P_g as an area: the table minus its inward offset by ``width``.
 
@@ -125,17 +126,19 @@ def goal_band(
     outline where a side grasp ``grasp_offset`` outside the edge, perpendicular to it, has an
     IK solution (:func:`~slide_gym.planning.grasp_reach.reachable_stretches`, a necessary
     condition: pair validation checks the rest): a plate slid elsewhere could never be picked
-    up. Returns an empty geometry if nothing is left.
+    up. ``stretches`` (``(p, q, outward normal)`` each) replaces that search with these
+    stretches. Returns an empty geometry if nothing is left.
     """
     inner = table.buffer(-width)
     band = table.difference(inner) if not inner.is_empty else table
     if band.area <= 0.0:
         raise ValueError(f"goal band of width {width} m is empty for this table")
-    if grasp_height is None:
-        return band
+    if stretches is None:
+        if grasp_height is None:
+            return band
+        stretches = reachable_stretches(table, grasp_height, grasp_offset)
     pieces = [
-        shapely.Polygon([p, q, q - 2 * width * n, p - 2 * width * n])
-        for p, q, n in reachable_stretches(table, grasp_height, grasp_offset)
+        shapely.Polygon([p, q, q - 2 * width * n, p - 2 * width * n]) for p, q, n in stretches
     ]
     return band.intersection(shapely.union_all(pieces)) if pieces else shapely.Polygon()
 

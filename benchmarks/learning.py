@@ -601,6 +601,19 @@ ROWS = {
             )
             for task, env_id in (("grasp", GRASP), ("slide", SLIDE))
         ),
+        Row(  # ... and on random catalog scenes, against dp-ee-catalog-slide-stop-b256-10k
+            "dp-ee-catalog-slide-stop-nearest-b256-10k",
+            "dp",
+            SLIDE,
+            {**CATALOG, **EE},
+            "slide-gym/catalog-slide-ee-stop-nearest-v1",
+            {
+                "episodes": 400,
+                "only_success": True,
+                "expert_params": {**GRASP_DEMO_EXPERT, "nearest_goal_edge": 1},
+            },
+            [*CPU_B256, "--iterations", "10000"],
+        ),
         Row(
             "dp-ee-catalog-slide-stop-1000-b256-20k",
             "dp",

@@ -136,10 +136,10 @@ class ExpertParams:
     ``nearest_goal_edge`` (bool; ``1``/``0`` on the command line): plan every slide toward
     the reachable stretch of the table's outline nearest the plate (``SlideParams.goal_edge
     = "nearest"``) instead of toward any. Which side a plate goes is then a function of where
-    it lies, not of the search's luck: the 200 square grasps of
-    ``slide-gym/square-grasp-ee-stop-anchor-v1`` went to the +y or the -y side of the square
-    table half and half wherever the plate started (100 of 200 agreed with the sign of its
-    start y), a choice a learner cannot see.
+    it lies, not of the search's luck: of the 200 square grasps of
+    ``slide-gym/square-grasp-ee-stop-anchor-v1``, 98 went to the side of the square table
+    nearest the plate's start and 102 across it (``benchmarks/slide_sides.py``), a choice a
+    learner cannot see.
 
     The press, slide, final-approach and lift speeds are 1.5-1.6x, the closing time 0.75x,
     and the holds after the press, after the slide and at the grasp's stand-off half or a

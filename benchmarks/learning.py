@@ -591,15 +591,19 @@ ROWS = {
         ),
         *(
             Row(  # demonstrations that slide toward the side the plate lies on (not either)
-                f"dp-ee-square-{task}-stop-anchor-nearest-b256-10k",
+                f"dp-ee-square-{task}-stop-anchor-nearest-b256-10k{suffix}",
                 "dp",
                 env_id,
                 {**SQUARE, **EE, **ANCHOR},
                 f"slide-gym/square-{task}-ee-stop-anchor-nearest-v1",
                 {**SQUARE_SLIDE, "expert_params": {**GRASP_DEMO_EXPERT, "nearest_goal_edge": 1}},
-                [*CPU_B256, "--iterations", "10000"],
+                [*CPU_B256, "--iterations", "10000", *seed],
             )
-            for task, env_id in (("grasp", GRASP), ("slide", SLIDE))
+            for task, env_id, suffix, seed in (
+                ("grasp", GRASP, "", []),
+                ("slide", SLIDE, "", []),
+                ("slide", SLIDE, "-seed1", ["--seed", "1"]),
+            )
         ),
         Row(  # ... and on random catalog scenes, against dp-ee-catalog-slide-stop-b256-10k
             "dp-ee-catalog-slide-stop-nearest-b256-10k",

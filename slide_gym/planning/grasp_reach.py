@@ -54,7 +54,7 @@ def nearest_stretches(
     stretches: list[tuple[np.ndarray, np.ndarray, np.ndarray]], point: np.ndarray
 ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """The stretch of ``stretches`` nearest ``point`` (x, y), with every stretch joined to it
-    end to end (a reachable corner is one piece): where :attr:`SlideParams.goal_edge`
+    end to end (a reachable corner is one piece): where ``SlideParams.goal_edge``
     ``"nearest"`` lets a plate go. Empty for no stretches."""
     if not stretches:
         return []

@@ -32,35 +32,38 @@ def slide_end(plate_z: np.ndarray, overhang: np.ndarray, table_z: float) -> int:
     return int(np.argmax(overhang[:last]))
 
 
-def toward_nearest(episode: object) -> bool:
+def toward_nearest(episode: object, scenes: object | None = None) -> bool:
     """True if the episode's slide ended at the group of reachable stretches nearest its
-    start (the group nearest the plate's centroid at the slide's end is the same)."""
-    import shapely
-
+    start (the group nearest the plate's centroid at the slide's end is the same). The
+    table is read from the first observation (``scenes``: an
+    :class:`~agents.scene.SceneLibrary`, built here if None); its reach map is taken 1 mm
+    above the table top, where the expert's is at the plate's mid-height (the observation
+    does not give the plate's thickness; a millimetre moves no stretch's end by a cell)."""
+    from agents.scene import SceneLibrary
     from slide_gym.planning.grasp_reach import nearest_stretches, reachable_stretches
     from slide_gym.planning.pair import GraspParams
 
+    library = scenes if isinstance(scenes, SceneLibrary) else SceneLibrary()
     obs = episode.observations  # type: ignore[attr-defined]
-    outline = np.asarray(obs["table_outline"][0], float).reshape(-1, 2)
-    outline = outline[np.any(outline != 0.0, axis=1)]
-    table = shapely.Polygon(outline)
-    table_z = float(obs["table_height"][0][0])
+    table = library.table_from(obs["table_outline"][0], float(obs["table_height"][0][0]))
     pose = np.asarray(obs["object_pose"], float)
     overhang = np.asarray(episode.infos["overhang_m"], float)[: len(pose)]  # type: ignore[attr-defined]
-    end = pose[slide_end(pose[:, 2], overhang, table_z), :2]
-    every = reachable_stretches(table, table_z + 0.001, GraspParams().edge_clearance)
+    end = pose[slide_end(pose[:, 2], overhang, table.height), :2]
+    every = reachable_stretches(table.polygon, table.height + 0.001, GraspParams().edge_clearance)
     start_side = {id(s) for s in nearest_stretches(every, pose[0, :2])}
     return start_side == {id(s) for s in nearest_stretches(every, end)}
 
 
 def main() -> None:
+    from agents.scene import SceneLibrary
     from slide_gym.datasets.store import load
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("datasets", nargs="+", help="Minari ids")
     args = parser.parse_args()
     for dataset_id in args.datasets:
-        sides = [toward_nearest(ep) for ep in load(dataset_id).iterate_episodes()]
+        scenes = SceneLibrary()
+        sides = [toward_nearest(ep, scenes) for ep in load(dataset_id).iterate_episodes()]
         print(
             f"{dataset_id}: {sum(sides)} of {len(sides)} slides ended at the reachable edge "
             "nearest the plate's start"

@@ -7,18 +7,21 @@ from types import ModuleType
 
 import numpy as np
 
+from slide_gym.envs.observation import TABLE_OUTLINE_POINTS
+from slide_gym.geometry import get_table
+
 
 class _Episode:
     """A recorded episode's fields that slide_sides reads, on the square table."""
 
     def __init__(self, xy: list[tuple[float, float]], overhang: list[float], lifted: int):
-        outline = np.array([[0.35, -0.25], [0.85, -0.25], [0.85, 0.25], [0.35, 0.25]])
+        square = get_table("square")
         n = len(xy)
-        z = np.where(np.arange(n) >= lifted, 0.05, 0.0)
+        z = square.height + np.where(np.arange(n) >= lifted, 0.05, 0.0)
         pose = np.column_stack([np.asarray(xy), z, np.zeros((n, 4))])
         self.observations = {
-            "table_outline": np.tile(np.r_[outline.ravel(), np.zeros(120)], (n, 1)),
-            "table_height": np.zeros((n, 1)),
+            "table_outline": np.tile(square.descriptor(TABLE_OUTLINE_POINTS).ravel(), (n, 1)),
+            "table_height": np.full((n, 1), square.height),
             "object_pose": pose,
         }
         self.infos = {"overhang_m": np.asarray(overhang + [0.0])}

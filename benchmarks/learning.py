@@ -603,6 +603,7 @@ ROWS = {
                 ("grasp", GRASP, "", []),
                 ("slide", SLIDE, "", []),
                 ("slide", SLIDE, "-seed1", ["--seed", "1"]),
+                ("slide", SLIDE, "-seed2", ["--seed", "2"]),
             )
         ),
         Row(  # ... and on random catalog scenes, against dp-ee-catalog-slide-stop-b256-10k
@@ -617,6 +618,20 @@ ROWS = {
                 "expert_params": {**GRASP_DEMO_EXPERT, "nearest_goal_edge": 1},
             },
             [*CPU_B256, "--iterations", "10000"],
+        ),
+        Row(  # 10000 more iterations of 256 from its weights (a fresh warm-up and decay)
+            "dp-ee-catalog-slide-stop-nearest-b256-10k-ft10k",
+            "dp",
+            SLIDE,
+            {**CATALOG, **EE},
+            "slide-gym/catalog-slide-ee-stop-nearest-v1",
+            {
+                "episodes": 400,
+                "only_success": True,
+                "expert_params": {**GRASP_DEMO_EXPERT, "nearest_goal_edge": 1},
+            },
+            ["--init", "{models}/dp-ee-catalog-slide-stop-nearest-b256-10k"]
+            + [*CPU_B256, "--iterations", "10000"],
         ),
         Row(
             "dp-ee-catalog-slide-stop-1000-b256-20k",

@@ -502,11 +502,13 @@ class SlideGraspExpert:
         pose = self._object_pose(obs)
         replan = self.report.replans > 0 or self._overhang_at(pose).u > 0
         attempts = self._slide_params()
-        for k, (name, params) in enumerate(attempts):
+        k = 0
+        while k < len(attempts):
+            name, params = attempts[k]
             budget = self._budget_left()
             if budget <= 0.05:
                 return self._fail("planning budget used up")
-            if k == 0:  # capped by iterations, not by a share of the time
+            if name.startswith("strict"):  # capped by iterations, not by a share of the time
                 params = dataclasses.replace(
                     params, max_iterations=self.params.strict_plan_iterations
                 )
@@ -529,6 +531,12 @@ class SlideGraspExpert:
             self.report.events.append(f"{name} plan: {result.status.value}: {result.reason}")
             if result.status is PlanStatus.TIMEOUT:
                 return self._fail(f"planning budget used up ({name} plan: {result.reason})")
+            if result.status is PlanStatus.INFEASIBLE and params.goal_edge == "nearest":
+                attempts[k + 1 :] = [  # this attempt again, and the rest, toward any edge
+                    (f"{n} (any edge)", dataclasses.replace(p, goal_edge="any"))
+                    for n, p in attempts[k:]
+                ]
+            k += 1
         else:
             if result.status is PlanStatus.INFEASIBLE:
                 return self._fail(f"plan infeasible: {result.reason}")

@@ -143,10 +143,11 @@ def test_evaluate_policy_with_two_envs_plans_once_per_episode(monkeypatch):
     rewards, lengths = evaluation.evaluate_policy(
         agent, envs, n_eval_episodes=4, return_episode_rewards=True
     )
+    finished = sum(len(r) for r in envs.env_method("get_episode_rewards"))  # Monitor's count
     envs.close()
     assert len(lengths) == 4 and max(lengths) < 800  # every episode succeeded in time
-    # 4 counted episodes, plus at most one more begun by each env while the other finishes
-    assert 4 <= len(made) <= 6
+    # one expert per episode the envs began: those they finished, and one running in each
+    assert 4 <= len(made) <= finished + 2 < 12
 
 
 @pytest.fixture(scope="module")

@@ -7,6 +7,7 @@ import dataclasses
 import numpy as np
 import pytest
 
+from agents.episode import run_episode
 from agents.params import (
     EXPERT_SLIDE_PARAMS,
     THIN_PLATE,
@@ -143,3 +144,24 @@ def test_a_slide_with_a_stop_overhang_ends_early_and_still_succeeds() -> None:
     assert any("slide stopped" in e for e in stopped.expert.events)
     assert not any("slide stopped" in e for e in plain.expert.events)
     assert stopped.steps < plain.steps
+
+
+@pytest.mark.slow
+def test_a_nearest_edge_with_no_goal_falls_back_to_any_edge(monkeypatch, plan_budget) -> None:
+    """Where the reachable stretch nearest the plate admits no goal, the expert's plan is
+    answered infeasible there and the same attempt runs again toward any edge."""
+    import slide_gym.planning.problem as problem
+
+    monkeypatch.setattr(problem, "nearest_stretches", lambda stretches, point: [])
+    record = run_episode(
+        "square",
+        "square",
+        seed=0,
+        env_id="SlideGym/TopSlide-v0",
+        time_budget=plan_budget,
+        params=ExpertParams(nearest_goal_edge=True),
+    ).to_json_dict()
+    events = record["events"]
+    assert events[0].startswith("strict plan: infeasible: no stretch of the table edge"), events
+    assert record["planned"] and record["success"], events
+    assert not any(e.startswith("strict (any edge) plan") for e in events), events

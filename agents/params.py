@@ -136,8 +136,8 @@ class ExpertParams:
     ``nearest_goal_edge`` (bool; ``1``/``0`` on the command line): plan every slide toward
     the reachable stretch of the table's outline nearest the plate (``SlideParams.goal_edge
     = "nearest"``) instead of toward any; where that stretch admits no goal (a plan answered
-    infeasible), that attempt and the later ones aim at any edge. Which side a plate goes is then a function of where
-    it lies, not of the search's luck: of the 200 square grasps of
+    infeasible), that attempt and the later ones aim at any edge. Which side a plate goes is
+    then a function of where it lies, not of the search's luck: of the 200 square grasps of
     ``slide-gym/square-grasp-ee-stop-anchor-v1``, 98 went to the side of the square table
     nearest the plate's start and 102 across it (``benchmarks/slide_sides.py``), a choice a
     learner cannot see.

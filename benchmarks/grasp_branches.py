@@ -9,7 +9,14 @@ split over IK branches (the signs of joints 1, 3, 5 and 7, the WAM's redundant r
 
     python benchmarks/grasp_branches.py slide-gym/square-grasp-v1
 
-With ``--json`` it prints one JSON object instead.
+With ``--json`` it prints one JSON object instead. It also prints how far each grasp lies
+from the expert's grasp posture (``ExpertParams.grasp_posture``, the nearest of its mirror
+images; the joint-space norm), and with ``--near-posture RAD --write-seeds FILE`` writes the
+seeds of the episodes whose grasp lies within RAD of it, a JSON list for ``slide-gym train-dp
+--episode-seeds FILE``:
+
+    python benchmarks/grasp_branches.py slide-gym/square-grasp-ee-stop-anchor-nearest-v1 \
+        --near-posture 1.0 --write-seeds near-posture-seeds.json
 """
 
 from __future__ import annotations
@@ -19,6 +26,7 @@ import json
 import os
 import sys
 from collections import Counter
+from pathlib import Path
 from typing import Any
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -29,16 +37,21 @@ BRANCH_JOINTS = (0, 2, 4, 6)
 """Joints 1, 3, 5, 7 (0-based): the sign pattern that tells the grasps' IK branches apart."""
 
 
-def grasp_spread(dataset_id: str) -> dict[str, Any]:
-    """Joint-space statistics of the hand-off-to-grasp moves in ``dataset_id``."""
+def grasp_spread(dataset_id: str, near_posture: float | None = None) -> dict[str, Any]:
+    """Joint-space statistics of the hand-off-to-grasp moves in ``dataset_id``; with
+    ``near_posture`` (rad) also the seeds whose grasp lies that close to the grasp posture."""
     import minari
 
     from agents.learned.features import slide_done
+    from agents.params import GRASP_POSTURE
+    from slide_gym.robot.kinematics import mirrored_postures
+
+    postures = mirrored_postures(np.array(GRASP_POSTURE))
 
     dataset = minari.load_dataset(dataset_id)
     ids = list(range(dataset.total_episodes))
     metas = list(dataset.storage.get_episode_metadata(ids))
-    handoff, grasp, steps, phases, pressed_again = [], [], [], Counter(), 0
+    handoff, grasp, steps, phases, pressed_again, seeds = [], [], [], Counter(), 0, []
     for meta, episode in zip(metas, dataset.iterate_episodes(ids), strict=True):
         record = meta["record"]
         record = json.loads(record) if isinstance(record, str) else record
@@ -52,11 +65,14 @@ def grasp_spread(dataset_id: str) -> dict[str, Any]:
         handoff.append(episode.observations["arm_qpos"][start])
         grasp.append(episode.observations["arm_qpos"][close])
         steps.append(close - start)
+        seeds.append(int(meta["seed"]))
     if not grasp:
         raise ValueError(f"{dataset_id!r} holds no successful episode with a grasp")
     q0, q1 = np.array(handoff), np.array(grasp)
     move = np.abs(q1 - q0).max(axis=1)
     branches = Counter("".join("+" if v >= 0 else "-" for v in q[list(BRANCH_JOINTS)]) for q in q1)
+    gap = np.linalg.norm(q1[:, None, :] - postures[None], axis=2).min(axis=1)
+    near = [s for s, g in zip(seeds, gap, strict=True) if near_posture and g <= near_posture]
 
     def rounded(a: np.ndarray) -> list[float]:
         return [round(float(v), 2) for v in a]
@@ -75,6 +91,9 @@ def grasp_spread(dataset_id: str) -> dict[str, Any]:
         "largest_joint_move_rad_p10_p50_p90": rounded(np.percentile(move, [10, 50, 90])),
         "steps_to_close_p10_p50_p90": rounded(np.percentile(steps, [10, 50, 90])),
         "branches": dict(branches.most_common()),
+        "posture_gap_rad_p10_p50_p90": rounded(np.percentile(gap, [10, 50, 90])),
+        "posture_gap_above_1_rad": int((gap > 1.0).sum()),
+        **({"near_posture_seeds": sorted(near)} if near_posture is not None else {}),
     }
 
 
@@ -82,12 +101,25 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("dataset", help="a local Minari dataset id of grasp demonstrations")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument(
+        "--near-posture",
+        type=float,
+        metavar="RAD",
+        help="list the seeds whose grasp lies within RAD of the grasp posture",
+    )
+    parser.add_argument("--write-seeds", metavar="FILE", help="write those seeds to FILE")
     args = parser.parse_args(argv)
+    if args.write_seeds and args.near_posture is None:
+        parser.error("--write-seeds needs --near-posture RAD")
     try:
-        result = grasp_spread(args.dataset)
+        if args.near_posture is not None and not args.near_posture > 0:
+            raise ValueError(f"--near-posture must be > 0 rad, got {args.near_posture}")
+        result = grasp_spread(args.dataset, args.near_posture)
     except (ValueError, FileNotFoundError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    if args.write_seeds:
+        Path(args.write_seeds).write_text(json.dumps(result["near_posture_seeds"]) + "\n")
     if args.json:
         print(json.dumps(result))
         return 0

@@ -170,6 +170,13 @@ as many iterations as fitted; no simulator there, so ``run`` validates the snaps
 CPU_B256 = ["--batch-size", "256", "--val-every", "5000"]
 """Batches of 256 on one core (0.22 s per iteration on an AMD EPYC core with the other core
 training too: 10000 iterations in 37-39 minutes, 20000 in 79), validated every 5000."""
+NEAR_POSTURE_SEEDS = (
+    "docs/results/learning/near-posture-seeds-square-grasp-ee-stop-anchor-nearest-v1.json"
+)
+"""The seeds of the nearest-side square grasps whose grasp lies within 1 rad of the expert's
+grasp posture (`python benchmarks/grasp_branches.py
+slide-gym/square-grasp-ee-stop-anchor-nearest-v1 --near-posture 1.0 --write-seeds FILE`); the
+other 48 grasp on far IK branches, after transfers that rise a median 0.20 m (0.11 m)."""
 ANCHOR_SEEDS = [("", []), ("-seed1", ["--seed", "1"]), ("-seed2", ["--seed", "2"])]
 """The anchored batch-256 bases' training seeds (row suffix, ``train-dp`` options); their
 DAgger rows and controls train at the base's seed."""
@@ -605,6 +612,15 @@ ROWS = {
                 ("slide", SLIDE, "-seed1", ["--seed", "1"]),
                 ("slide", SLIDE, "-seed2", ["--seed", "2"]),
             )
+        ),
+        Row(  # the grasps of those on the grasp posture's IK branches only (152 of 200)
+            "dp-ee-square-grasp-stop-anchor-nearest-near-posture-b256-10k",
+            "dp",
+            GRASP,
+            {**SQUARE, **EE, **ANCHOR},
+            "slide-gym/square-grasp-ee-stop-anchor-nearest-v1",
+            {**SQUARE_SLIDE, "expert_params": {**GRASP_DEMO_EXPERT, "nearest_goal_edge": 1}},
+            [*CPU_B256, "--iterations", "10000", "--episode-seeds", NEAR_POSTURE_SEEDS],
         ),
         Row(  # ... and on random catalog scenes, against dp-ee-catalog-slide-stop-b256-10k
             "dp-ee-catalog-slide-stop-nearest-b256-10k",

@@ -837,3 +837,19 @@ def test_slide_failures_names_each_grasp_ending(load_benchmark):
     assert kind(False, 0.2, True, False, 0.0, True) == "graspable, never pinched"
     assert kind(False, 0.2, True, False, 0.0, False) == "pushed back"
     assert kind(False, 0.2, True, True, 0.005, True) == "pinched, not held"
+
+
+def test_episode_seeds_keep_only_the_listed_episodes(dart, tmp_path, capsys):
+    full = load_demonstrations(dart)
+    only = load_demonstrations(dart, episode_seeds=frozenset({5}))
+    assert full.seeds == [4, 5] and only.seeds == [5] and only.skipped == full.skipped + 1
+    np.testing.assert_array_equal(only.labels, full.labels[full.starts[1] :])
+    with pytest.raises(ValueError, match=r"1 of the 2 episode seeds are in no episode"):
+        load_demonstrations(dart, episode_seeds=frozenset({5, 6}))
+    seeds = tmp_path / "seeds.json"
+    args = ["train-dp", DATASET, "--out", str(tmp_path / "run"), "--episode-seeds", str(seeds)]
+    for text in ("[]", "[4, true]", "{", '"4"'):
+        seeds.write_text(text)
+        assert main(args) == 2
+        err = capsys.readouterr().err
+        assert "--episode-seeds" in err and len(err.strip().splitlines()) == 1

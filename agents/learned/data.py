@@ -80,6 +80,7 @@ def load_demonstrations(
     only_success: bool = True,
     after_slide: bool = False,
     targets: bool = False,
+    episode_seeds: frozenset[int] | None = None,
 ) -> Demonstrations:
     """The episodes of Minari ``dataset`` as :class:`Demonstrations`: those whose ``success``
     flag is set (all, if ``only_success`` is False), and every DAgger rollout (whatever the
@@ -89,14 +90,26 @@ def load_demonstrations(
     ``with_features``, ``tip_axes``: the inputs, as :func:`~agents.learned.features.policy_input`.
     ``targets``: the arm labels are the arm's fingertip poses after each step, in the task
     frame of the episode's first kept observation (:mod:`agents.learned.frames`; ``ee_delta``
-    demonstrations only, and not relabelled ones). ValueError if none is left."""
+    demonstrations only, and not relabelled ones). ``episode_seeds``: only the episodes reset
+    with one of these seeds (ValueError if one of them is in no episode). ValueError if none
+    is left."""
     episode_ids = list(range(dataset.total_episodes))
     metas = list(dataset.storage.get_episode_metadata(episode_ids))
+    if episode_seeds is not None:
+        missing = sorted(set(episode_seeds) - {int(m.get("seed", -1)) for m in metas})
+        if missing:
+            raise ValueError(
+                f"{len(missing)} of the {len(episode_seeds)} episode seeds are in no episode "
+                f"of the dataset (first: {missing[:5]}); list seeds of its episodes"
+            )
     inputs, labels, lengths, seeds = [], [], [], []
     chunk_labels: list[np.ndarray | None] = []
     skipped = 0
     for episode, meta in zip(dataset.iterate_episodes(episode_ids), metas, strict=True):
         labelled_rollout = int(meta.get("dagger_round", 0)) > 0  # its labels are the expert's
+        if episode_seeds is not None and int(meta.get("seed", -1)) not in episode_seeds:
+            skipped += 1
+            continue
         if only_success and not labelled_rollout and not bool(meta.get("success", True)):
             skipped += 1
             continue

@@ -144,6 +144,7 @@ def train_diffusion(
     first: Path | None = None,
     device: str = "cpu",
     snapshot_every: int = 0,
+    episode_seeds: frozenset[int] | None = None,
 ) -> dict[str, Any]:
     """Train on Minari ``dataset`` into folder ``out`` (see the module docstring) and return
     the summary that ``policy.json`` also holds. ``env_id``/``env_kwargs``: the env the
@@ -155,7 +156,7 @@ def train_diffusion(
     episode); see :func:`~agents.learned.data.load_demonstrations`. ``first``: a sliding
     skill's ``policy.pt``; the model learns only what follows a finished slide in each
     episode (``after_slide``) and the saved policy runs ``first`` until then (validation
-    included)."""
+    included). ``episode_seeds``: train only on the episodes reset with these seeds."""
     first_model = None
     if first is not None:
         from agents.learned.policy import load_model
@@ -184,7 +185,9 @@ def train_diffusion(
         only_success=only_success,
         after_slide=first_model is not None,
         targets=config.actions == "targets",
+        episode_seeds=episode_seeds,
     )
+    seed_list = None if episode_seeds is None else sorted(episode_seeds)
     if init_model is None:
         config = replace(config, hand=hand_kind(demos.labels))
     sampler = ChunkSampler(demos, config.obs_horizon, config.pred_horizon, config.actions)
@@ -214,8 +217,9 @@ def train_diffusion(
     if resume and ckpt_path.exists():
         blob = torch.load(ckpt_path, map_location=device, weights_only=False)
         saved = (blob["config"], blob["train"], blob.get("only_success", True), blob.get("first"))
+        saved += (blob.get("episode_seeds"),)
         first_key = None if first is None else str(first)
-        if saved != (config.to_json(), _train_json(train), only_success, first_key):
+        if saved != (config.to_json(), _train_json(train), only_success, first_key, seed_list):
             raise ValueError(
                 f"{str(out)!r} was trained with another configuration ({saved}); resume with "
                 "the same options, or choose another --out"
@@ -244,6 +248,7 @@ def train_diffusion(
             "only_success": bool(only_success),
             "seeds": [min(demos.seeds), max(demos.seeds)],
             "after_slide": first_model is not None,
+            **({"episode_seeds": len(seed_list)} if seed_list is not None else {}),
         },
         "parameters": sum(p.numel() for p in model.parameters()),
         "device": device,
@@ -255,6 +260,7 @@ def train_diffusion(
             "train": _train_json(train),
             "only_success": bool(only_success),
             "first": None if first is None else str(first),
+            "episode_seeds": seed_list,
             "input_dim": model.input_dim,
             "action_dim": model.action_dim,
             "model": model.state_dict(),

@@ -40,6 +40,7 @@ def _cmd_train_dp(args: argparse.Namespace) -> int:
     first = _policy_weights(
         args.after, "--after", "the folder of a sliding policy written by `slide-gym train-dp`"
     )
+    episode_seeds = _episode_seeds(args.episode_seeds)
     dataset = load(args.dataset_id)
     meta = dataset_metadata(dataset)
     summary = train_diffusion(
@@ -53,6 +54,7 @@ def _cmd_train_dp(args: argparse.Namespace) -> int:
             "dataset_id": args.dataset_id,
             **({"init": str(args.init)} if init else {}),
             **({"after": str(args.after)} if first else {}),
+            **({"episode_seeds": str(args.episode_seeds)} if episode_seeds else {}),
         },
         resume=args.resume,
         only_success=args.only_success,
@@ -60,6 +62,7 @@ def _cmd_train_dp(args: argparse.Namespace) -> int:
         first=first,
         device=args.device,
         snapshot_every=args.snapshot_every,
+        episode_seeds=episode_seeds,
     )
     print(json.dumps({"out": str(args.out), **summary}, indent=2))
     return 0
@@ -71,6 +74,27 @@ def _cmd_choose_checkpoint(args: argparse.Namespace) -> int:
     card = choose_snapshot(args.run, episodes=args.episodes, progress=True)
     print(json.dumps({"run": str(args.run), "checkpoint": card["checkpoint"]}, indent=2))
     return 0
+
+
+def _episode_seeds(path: str | None) -> frozenset[int] | None:
+    """The reset seeds listed in the JSON file ``path`` (None without one); ValueError if it
+    is not a non-empty list of whole numbers."""
+    if path is None:
+        return None
+    try:
+        seeds = json.loads(Path(path).read_text())
+    except (OSError, json.JSONDecodeError) as exc:
+        raise ValueError(f"--episode-seeds {path!r}: not a readable JSON file ({exc})") from None
+    if (
+        not isinstance(seeds, list)
+        or not seeds
+        or not all(isinstance(s, int) and not isinstance(s, bool) for s in seeds)
+    ):
+        raise ValueError(
+            f"--episode-seeds {path!r} must hold a non-empty JSON list of episode seeds "
+            "(whole numbers), e.g. [0, 3, 4]"
+        )
+    return frozenset(seeds)
 
 
 def _policy_weights(folder: str | None, option: str, what: str) -> Path | None:
@@ -223,6 +247,12 @@ def add_parsers(sub: Any) -> None:
         help="a sliding policy (trained on TopSlide-v0) that acts first: learn only what "
         "follows a finished slide in each episode (the plate overhanging u* and the pressing "
         "finger unbent); the saved policy runs POLICY_DIR's skill until then, this one after",
+    )
+    p.add_argument(
+        "--episode-seeds",
+        metavar="FILE",
+        help="train only on the episodes reset with the seeds of this JSON list (e.g. those "
+        "`python benchmarks/grasp_branches.py DATASET --near-posture RAD` writes)",
     )
     add_only_success(p, "; DAgger rollouts are kept either way (their labels are the expert's)")
     p.set_defaults(func=_cmd_train_dp)

@@ -133,13 +133,11 @@ class ExpertParams:
     takeovers a few steps apart can disagree; the straight one aims where the state says,
     which DAgger's labels need.
 
-    ``nearest_goal_edge`` (bool; ``1``/``0`` on the command line; True by default): plan
-    every slide toward the reachable stretch of the table's outline nearest the plate
-    (``SlideParams.goal_edge = "nearest"``); where that stretch admits no goal (a plan
-    answered infeasible), that attempt and the later ones aim at any edge. Which side a plate
-    goes is then a function of where it lies, not of the search's luck, and the slides are
-    shorter. False aims every plan at any reachable edge (the paper's C_g), as every dataset
-    collected before this default did: of the 200 square grasps of
+    ``nearest_goal_edge`` (bool; ``1``/``0`` on the command line): plan every slide toward
+    the reachable stretch of the table's outline nearest the plate (``SlideParams.goal_edge
+    = "nearest"``) instead of toward any; where that stretch admits no goal (a plan answered
+    infeasible), that attempt and the later ones aim at any edge. Which side a plate goes is
+    then a function of where it lies, not of the search's luck: of the 200 square grasps of
     ``slide-gym/square-grasp-ee-stop-anchor-v1``, 98 went to the side of the square table
     nearest the plate's start and 102 across it (``benchmarks/slide_sides.py``), a choice a
     learner cannot see.
@@ -187,7 +185,7 @@ class ExpertParams:
     grasp_posture: tuple[float, ...] | None = GRASP_POSTURE
     stop_overhang: float | None = None
     straight_slide_on: bool = False
-    nearest_goal_edge: bool = True
+    nearest_goal_edge: bool = False
 
     def __post_init__(self) -> None:
         for name, value in dataclasses.asdict(self).items():

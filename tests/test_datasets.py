@@ -305,6 +305,3 @@ def test_the_collecting_experts_changed_defaults_come_back_from_the_metadata(col
     params = config.agent_kwargs()["params"]
     assert (params.slide_speed, params.settle_s, params.max_replans) == (0.05, 0.2, 1)
     assert params.grasp_posture == ExpertParams().grasp_posture
-    del older["agent"]["expert_params"]["nearest_goal_edge"]  # recorded before it existed
-    before = CollectConfig.from_metadata(older).agent_kwargs()["params"]
-    assert before.nearest_goal_edge is False and ExpertParams().nearest_goal_edge is True

@@ -104,9 +104,9 @@ def test_stop_overhang_is_off_by_default_and_checked() -> None:
             ExpertParams(stop_overhang=bad)
 
 
-def test_nearest_goal_edge_is_a_switch_on_by_default() -> None:
-    assert ExpertParams().nearest_goal_edge is True
-    assert expert_params({"nearest_goal_edge": 0.0}).nearest_goal_edge is False
+def test_nearest_goal_edge_is_a_switch_off_by_default() -> None:
+    assert ExpertParams().nearest_goal_edge is False
+    assert expert_params({"nearest_goal_edge": 1.0}).nearest_goal_edge is True
     with pytest.raises(ValueError, match="nearest_goal_edge must be True or False"):
         expert_params({"nearest_goal_edge": 2.0})
     with pytest.raises(ValueError, match="goal_edge must be one of any, nearest"):

@@ -24,12 +24,10 @@ SEED = 3
 
 @pytest.fixture(scope="module")
 def episode():
-    """The expert's actions, infos and phases in the grasp env, square on square, seed 3,
-    planned toward any reachable edge (``nearest_goal_edge=False``): the states the tests
-    take over from were chosen on that episode."""
+    """The expert's actions, infos and phases in the grasp env, square on square, seed 3."""
     env = gym.make(GRASP)
     obs, _ = env.reset(seed=SEED)
-    agent = PlannerAgent("regions", 60.0, seed=SEED, params=ExpertParams(nearest_goal_edge=False))
+    agent = PlannerAgent("regions", 60.0, seed=SEED)
     actions, infos, phases, done = [], [], [], False
     while not done:
         action, _ = agent.predict(obs, episode_start=np.array([not actions]))

@@ -16,9 +16,8 @@ def test_a_half_scale_circle_pulled_back_stays_graspable():
     threshold, and was slid again twice to the same end (in v0's physics and with the 0.3 s
     press hold, where it was found: at the shorter default hold the same seed's slide ends
     elsewhere, its pull-back lands the circle at 1.6 cm, and it is slid again once and
-    lifted; the expert then planned toward any reachable edge, as ``nearest_goal_edge=False``
-    does)."""
-    params = dataclasses.replace(ExpertParams(), press_hold_s=0.3, nearest_goal_edge=False)
+    lifted)."""
+    params = dataclasses.replace(ExpertParams(), press_hold_s=0.3)
     record = run_episode(
         "circle", "round", scale=0.5, seed=3, env_id="SlideGym/TopSlideGrasp-v0", params=params
     )

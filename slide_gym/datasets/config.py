@@ -39,9 +39,6 @@ def check_dataset_id(dataset_id: str) -> str:
     return dataset_id
 
 
-SETTINGS_BEFORE_ADDED: dict[str, bool] = {"nearest_goal_edge": False}
-"""Expert settings added after datasets were first collected, with the behaviour before them:
-a dataset whose record lacks one was collected that way."""
 NUMERIC_PLANNER_PARAMS = ("u_star", "centroid_margin", "press_radius", "max_rotation")
 """The expert's planner parameters a collection may override (the slide's goal and press)."""
 
@@ -226,14 +223,11 @@ class CollectConfig:
         ``expert_params`` also hold every numeric expert setting recorded there that differs
         from today's default: an expert built from it acts as the one that collected the
         dataset, even where a default changed since (the quicker defaults of ``acbcfdf``).
-        A setting the record lacks, added since, takes its value from before it existed
-        (:data:`SETTINGS_BEFORE_ADDED`). ``grasp_posture``, not a number, keeps today's value."""
+        ``grasp_posture``, not a number, keeps today's value."""
         from agents.params import ExpertParams
 
         config = cls.from_json(metadata["config"])
         recorded = metadata.get("agent", {}).get("expert_params", {})
-        if recorded:
-            recorded = {**SETTINGS_BEFORE_ADDED, **recorded}
         defaults = dataclasses.asdict(ExpertParams())
         changed = {
             name: float(value)

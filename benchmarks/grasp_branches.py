@@ -11,9 +11,10 @@ split over IK branches (the signs of joints 1, 3, 5 and 7, the WAM's redundant r
 
 With ``--json`` it prints one JSON object instead. It also prints how far each grasp lies
 from the expert's grasp posture (``ExpertParams.grasp_posture``, the nearest of its mirror
-images; the joint-space norm), and with ``--near-posture RAD --write-seeds FILE`` writes the
-seeds of the episodes whose grasp lies within RAD of it, a JSON list for ``slide-gym train-dp
---episode-seeds FILE``:
+images; the joint-space norm), and for the grasps within 1 rad of it and beyond, the median
+highest fingertip above the table and the steps from the hand-off to the grasp. With
+``--near-posture RAD --write-seeds FILE`` it writes the seeds of the episodes whose grasp
+lies within RAD of the posture, a JSON list for ``slide-gym train-dp --episode-seeds FILE``:
 
     python benchmarks/grasp_branches.py slide-gym/square-grasp-ee-stop-anchor-nearest-v1 \
         --near-posture 1.0 --write-seeds near-posture-seeds.json
@@ -51,7 +52,7 @@ def grasp_spread(dataset_id: str, near_posture: float | None = None) -> dict[str
     dataset = minari.load_dataset(dataset_id)
     ids = list(range(dataset.total_episodes))
     metas = list(dataset.storage.get_episode_metadata(ids))
-    handoff, grasp, steps, phases, pressed_again, seeds = [], [], [], Counter(), 0, []
+    handoff, grasp, steps, phases, pressed_again, seeds, rise = [], [], [], Counter(), 0, [], []
     for meta, episode in zip(metas, dataset.iterate_episodes(ids), strict=True):
         record = meta["record"]
         record = json.loads(record) if isinstance(record, str) else record
@@ -65,6 +66,8 @@ def grasp_spread(dataset_id: str, near_posture: float | None = None) -> dict[str
         handoff.append(episode.observations["arm_qpos"][start])
         grasp.append(episode.observations["arm_qpos"][close])
         steps.append(close - start)
+        tip_z = episode.observations["fingertip_pose"][start:close, 2]
+        rise.append(float(np.max(tip_z - episode.observations["table_height"][start:close, 0])))
         seeds.append(int(meta["seed"]))
     if not grasp:
         raise ValueError(f"{dataset_id!r} holds no successful episode with a grasp")
@@ -93,6 +96,14 @@ def grasp_spread(dataset_id: str, near_posture: float | None = None) -> dict[str
         "branches": dict(branches.most_common()),
         "posture_gap_rad_p10_p50_p90": rounded(np.percentile(gap, [10, 50, 90])),
         "posture_gap_above_1_rad": int((gap > 1.0).sum()),
+        **{
+            f"{name}_median_rise_m_steps": [
+                round(float(np.median(np.array(rise)[pick])), 3),
+                float(np.median(np.array(steps)[pick])),
+            ]
+            for name, pick in (("within_1_rad", gap <= 1.0), ("beyond_1_rad", gap > 1.0))
+            if pick.any()
+        },
         **({"near_posture_seeds": sorted(near)} if near_posture is not None else {}),
     }
 

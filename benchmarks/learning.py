@@ -622,32 +622,25 @@ ROWS = {
             {**SQUARE_SLIDE, "expert_params": {**GRASP_DEMO_EXPERT, "nearest_goal_edge": 1}},
             [*CPU_B256, "--iterations", "10000", "--episode-seeds", NEAR_POSTURE_SEEDS],
         ),
-        Row(  # ... and on random catalog scenes, against dp-ee-catalog-slide-stop-b256-10k
-            "dp-ee-catalog-slide-stop-nearest-b256-10k",
-            "dp",
-            SLIDE,
-            {**CATALOG, **EE},
-            "slide-gym/catalog-slide-ee-stop-nearest-v1",
-            {
-                "episodes": 400,
-                "only_success": True,
-                "expert_params": {**GRASP_DEMO_EXPERT, "nearest_goal_edge": 1},
-            },
-            [*CPU_B256, "--iterations", "10000"],
-        ),
-        Row(  # 10000 more iterations of 256 from its weights (a fresh warm-up and decay)
-            "dp-ee-catalog-slide-stop-nearest-b256-10k-ft10k",
-            "dp",
-            SLIDE,
-            {**CATALOG, **EE},
-            "slide-gym/catalog-slide-ee-stop-nearest-v1",
-            {
-                "episodes": 400,
-                "only_success": True,
-                "expert_params": {**GRASP_DEMO_EXPERT, "nearest_goal_edge": 1},
-            },
-            ["--init", "{models}/dp-ee-catalog-slide-stop-nearest-b256-10k"]
-            + [*CPU_B256, "--iterations", "10000"],
+        *(
+            Row(  # ... and on random catalog scenes, against dp-ee-catalog-slide-stop-b256-10k;
+                # -ft10k: 10000 more iterations from its weights (a fresh warm-up and decay)
+                "dp-ee-catalog-slide-stop-nearest-b256-10k" + suffix,
+                "dp",
+                SLIDE,
+                {**CATALOG, **EE},
+                "slide-gym/catalog-slide-ee-stop-nearest-v1",
+                {
+                    "episodes": 400,
+                    "only_success": True,
+                    "expert_params": {**GRASP_DEMO_EXPERT, "nearest_goal_edge": 1},
+                },
+                init + [*CPU_B256, "--iterations", "10000"],
+            )
+            for suffix, init in (
+                ("", []),
+                ("-ft10k", ["--init", "{models}/dp-ee-catalog-slide-stop-nearest-b256-10k"]),
+            )
         ),
         Row(
             "dp-ee-catalog-slide-stop-1000-b256-20k",

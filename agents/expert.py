@@ -59,7 +59,7 @@ from agents.params import (
 from agents.record import ExpertReport
 from agents.scene import SceneLibrary
 from agents.takeover import lift_off_pressed, slide_on, slide_straight_on
-from agents.tracking import ContactTracker, cartesian_line, rise
+from agents.tracking import ContactTracker, cartesian_line, cartesian_walk, rise
 from agents.trajectory import Segment, time_segment
 from slide_gym.geometry import (
     ObjectShape,
@@ -108,6 +108,9 @@ PULL_BACK_SLACK = 0.005
 APPROACH_RAISES = (0.15, 0.25, 0.35)
 """m above the pre-press pose: the approach goes via a pose raised by the first of these whose
 route is free (when the direct move is not), before a planned route is tried."""
+_FLIP_PALM = np.diag([-1.0, -1.0, 1.0])
+"""A half turn about the grasp frame's approach axis: the side grasp with the palm the other
+way up (:func:`~slide_gym.planning.pair.side_grasp_rotations`)."""
 
 
 PHASES = (
@@ -494,7 +497,7 @@ class SlideGraspExpert:
         if not ok:
             self.report.events.append(f"no grasp from here ({info.get('reason')}): planning")
             return False
-        self._queue_grasp(np.asarray(info["transfer_path"]))
+        self._queue_grasp(np.asarray(info["transfer_path"]), pose)
         return True
 
     def _plan(self, obs: dict[str, np.ndarray]) -> None:
@@ -767,7 +770,7 @@ class SlideGraspExpert:
             f"{self.report.slide_error_rad:.3f} rad, grasp {'ok' if ok else info.get('reason')}"
         )
         if ok:
-            return self._queue_grasp(np.asarray(info["transfer_path"]))
+            return self._queue_grasp(np.asarray(info["transfer_path"]), actual)
         if self.report.replans >= self.params.max_replans:
             return self._fail(f"not graspable after the slide ({info.get('reason')})")
         self.report.replans += 1
@@ -805,10 +808,44 @@ class SlideGraspExpert:
             return transfer
         return np.vstack([transfer[:-1], line[np.flatnonzero(far)[-1]], transfer[-1]])
 
-    def _queue_grasp(self, transfer: np.ndarray) -> None:
+    def _straight_transfer(self, transfer: np.ndarray, pose: np.ndarray) -> np.ndarray | None:
+        """A transfer to the pre-grasp and grasp positions of ``transfer``'s last two
+        configurations that moves the hand along straight lines, turning at a constant rate:
+        diagonally to above the pre-grasp, or first up to the planner's clear height and then
+        across, and down to it; the palm as planned or turned over (the pinch is symmetric).
+        The first of these that stays on the arm's IK branch (each configuration follows from
+        the one before) and is collision-free with the plate at ``pose``; None if none is."""
+        assert self.q_cmd is not None and self.planner is not None and self.table is not None
+        g = self.slide_params.grasp
+        here, pre, grasp = self.hand.forward(np.stack([self.q_cmd, transfer[-2], transfer[-1]]))
+        high = pre[:3, 3] + [0.0, 0.0, g.rise]
+        clear_z = self.table.height + g.clear_height
+        for rot in (pre[:3, :3], pre[:3, :3] @ _FLIP_PALM):  # either way up pinches
+            across = [(high, rot)]
+            over = [(np.r_[here[:2, 3], clear_z], here[:3, :3]), (np.r_[high[:2], clear_z], rot)]
+            for legs in (across, over + across) if here[2, 3] < clear_z else (across,):
+                walk = cartesian_walk(
+                    self.hand, self.q_cmd, [*legs, (pre[:3, 3], rot)], self.rng, transfer[-2]
+                )
+                if walk is None:
+                    continue
+                approach = cartesian_walk(self.hand, walk[-1], [(grasp[:3, 3], rot)], self.rng)
+                if approach is None:
+                    continue
+                route = np.vstack([walk, approach[-1:]])
+                if self.planner.route_free(route, pose):
+                    return route
+        return None
+
+    def _queue_grasp(self, transfer: np.ndarray, pose: np.ndarray) -> None:
         p = self.params
         assert self.q_cmd is not None
         transfer = self._approach_leg(transfer)
+        if p.straight_transfer:
+            straight = self._straight_transfer(transfer, pose)
+            if straight is not None:
+                transfer = straight
+                self.report.events.append("straight transfer to the grasp")
         q_grasp = transfer[-1]
         heights = (p.lift, 0.75 * p.lift, 0.5 * p.lift)  # lower near the edge of the workspace
         lift_path = rise(self.hand, q_grasp, heights, True, self.rng)

@@ -142,6 +142,13 @@ class ExpertParams:
     nearest the plate's start and 102 across it (``benchmarks/slide_sides.py``), a choice a
     learner cannot see.
 
+    ``straight_transfer`` (bool; ``1``/``0`` on the command line): move the hand from the
+    lift-off to the re-aimed grasp along straight lines, turning at a constant rate
+    (diagonally to above the pre-grasp, else up to the clear height, across and down; the
+    first that is collision-free), instead of the planner's joint-space legs, whose hand path
+    bends with the arm's IK branch. The grasp's pose is the planner's; False, or no free
+    straight path, keeps the planner's transfer.
+
     The press, slide, final-approach and lift speeds are 1.5-1.6x, the closing time 0.75x,
     and the holds after the press, after the slide and at the grasp's stand-off half or a
     third, those of the figures measured before the quicker defaults (CHANGELOG: 0.02, 0.05,
@@ -186,12 +193,13 @@ class ExpertParams:
     stop_overhang: float | None = None
     straight_slide_on: bool = False
     nearest_goal_edge: bool = False
+    straight_transfer: bool = False
 
     def __post_init__(self) -> None:
         for name, value in dataclasses.asdict(self).items():
             if name == "grasp_posture":
                 _check_posture(value)
-            elif name in ("straight_slide_on", "nearest_goal_edge"):
+            elif name in ("straight_slide_on", "nearest_goal_edge", "straight_transfer"):
                 if not isinstance(value, bool):
                     raise ValueError(f"{name} must be True or False (1 or 0): {value!r}")
             elif name == "stop_overhang" and value is None:

@@ -9,11 +9,13 @@ import math
 import numpy as np
 
 from agents.params import ExpertParams
+from slide_gym.envs.control import rotation_matrix, rotation_vector
 from slide_gym.planning.api import IKParams, IKTarget, solve_ik
 from slide_gym.robot.kinematics import FastChain
 
 _LOCAL_IK = IKParams(n_restarts=1)  # the seed only: no jump to another IK branch
 LINE_STEP = 0.01  # m between the IK waypoints of a straight Cartesian move
+LINE_ROT_STEP = 0.05  # rad between the IK waypoints of a turning Cartesian move
 _LINE_MAX_JOINT_STEP = 0.3  # rad: a larger change between waypoints means a branch switch
 
 
@@ -33,6 +35,49 @@ def cartesian_line(
         target = IKTarget(start[:3, 3] + offset * k / n, start[:3, :3])
         q = solve_ik(chain, target, rng, path[-1][None], _LOCAL_IK)
         if q is None or np.abs(q - path[-1]).max() > _LINE_MAX_JOINT_STEP:
+            return None
+        path.append(q)
+    return np.array(path)
+
+
+def cartesian_walk(
+    chain: FastChain,
+    q0: np.ndarray,
+    poses: list[tuple[np.ndarray, np.ndarray]],
+    rng: np.random.Generator,
+    toward: np.ndarray | None = None,
+) -> np.ndarray | None:
+    """Joint waypoints that move ``chain``'s frame from its pose at ``q0`` through ``poses``
+    ((position (3,), rotation (3, 3)) in the world) along straight lines, the orientation
+    turning at a constant rate about one axis on each leg; None if that leaves the reachable
+    set or switches IK branch. Waypoints lie :data:`LINE_STEP` apart or turn
+    :data:`LINE_ROT_STEP`, whichever needs more. Each IK starts from the previous waypoint,
+    moved by an even share of the way left to ``toward`` (7,) if given: the arm's redundant
+    motion then drifts toward that configuration instead of into a joint limit."""
+    here = chain.forward(q0)
+    pos, rot = here[:3, 3], here[:3, :3]
+    targets = []
+    for goal_pos, goal_rot in poses:
+        turn = rotation_vector(rot.T @ goal_rot)
+        steps = max(
+            float(np.linalg.norm(goal_pos - pos)) / LINE_STEP,
+            float(np.linalg.norm(turn)) / LINE_ROT_STEP,
+        )
+        n = max(1, math.ceil(steps))
+        targets += [
+            IKTarget(pos + (goal_pos - pos) * k / n, rot @ rotation_matrix(turn * k / n))
+            for k in range(1, n + 1)
+        ]
+        pos, rot = np.asarray(goal_pos, dtype=float), np.asarray(goal_rot, dtype=float)
+    path = [np.asarray(q0, dtype=float)]
+    for i, target in enumerate(targets):
+        last = path[-1]
+        seeds = [last] if toward is None else [last + (toward - last) / (len(targets) - i), last]
+        for seed in seeds:
+            q = solve_ik(chain, target, rng, seed[None], _LOCAL_IK)
+            if q is not None and np.abs(q - last).max() <= _LINE_MAX_JOINT_STEP:
+                break
+        else:
             return None
         path.append(q)
     return np.array(path)

@@ -623,6 +623,25 @@ ROWS = {
             [*CPU_B256, "--iterations", "10000", "--episode-seeds", NEAR_POSTURE_SEEDS],
         ),
         *(
+            Row(  # the nearest-side grasps with the hand moved along straight lines to them
+                "dp-ee-square-grasp-stop-anchor-nearest-straight-b256-10k" + suffix,
+                "dp",
+                GRASP,
+                {**SQUARE, **EE, **ANCHOR},
+                "slide-gym/square-grasp-ee-stop-anchor-nearest-straight-v1",
+                {
+                    **SQUARE_SLIDE,
+                    "expert_params": {
+                        **GRASP_DEMO_EXPERT,
+                        "nearest_goal_edge": 1,
+                        "straight_transfer": 1,
+                    },
+                },
+                [*CPU_B256, "--iterations", "10000", *seed],
+            )
+            for suffix, seed in ANCHOR_SEEDS[:2]
+        ),
+        *(
             Row(  # ... and on random catalog scenes, against dp-ee-catalog-slide-stop-b256-10k;
                 # -ft10k: 10000 more iterations from its weights (a fresh warm-up and decay)
                 "dp-ee-catalog-slide-stop-nearest-b256-10k" + suffix,

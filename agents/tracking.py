@@ -9,8 +9,8 @@ import math
 import numpy as np
 
 from agents.params import ExpertParams
-from slide_gym.envs.control import rotation_matrix, rotation_vector
 from slide_gym.planning.api import IKParams, IKTarget, solve_ik
+from slide_gym.planning.ik import interpolate_rotation
 from slide_gym.robot.kinematics import FastChain
 
 _LOCAL_IK = IKParams(n_restarts=1)  # the seed only: no jump to another IK branch
@@ -58,14 +58,11 @@ def cartesian_walk(
     pos, rot = here[:3, 3], here[:3, :3]
     targets = []
     for goal_pos, goal_rot in poses:
-        turn = rotation_vector(rot.T @ goal_rot)
-        steps = max(
-            float(np.linalg.norm(goal_pos - pos)) / LINE_STEP,
-            float(np.linalg.norm(turn)) / LINE_ROT_STEP,
-        )
+        turn = math.acos(float(np.clip((np.trace(rot.T @ goal_rot) - 1.0) / 2.0, -1.0, 1.0)))
+        steps = max(float(np.linalg.norm(goal_pos - pos)) / LINE_STEP, turn / LINE_ROT_STEP)
         n = max(1, math.ceil(steps))
         targets += [
-            IKTarget(pos + (goal_pos - pos) * k / n, rot @ rotation_matrix(turn * k / n))
+            IKTarget(pos + (goal_pos - pos) * k / n, interpolate_rotation(rot, goal_rot, k / n))
             for k in range(1, n + 1)
         ]
         pos, rot = np.asarray(goal_pos, dtype=float), np.asarray(goal_rot, dtype=float)

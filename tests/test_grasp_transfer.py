@@ -13,6 +13,7 @@ import slide_gym  # noqa: F401 - registers the environments
 from agents.evaluate import _planner_agent
 from agents.learned.features import slide_done
 from agents.params import GRASP_POSTURE, ExpertParams
+from agents.tracking import LINE_ROT_STEP, cartesian_walk
 from slide_gym.planning.ik import IKTarget, interpolate_rotation, solve_ik, solve_ik_along
 from slide_gym.robot.kinematics import grasp_chain, mirrored_postures
 from slide_gym.robot.model import READY_ARM_Q
@@ -130,3 +131,64 @@ def test_expert_grasps_of_several_seeds_lie_near_its_grasp_posture():
             obs, *_ = env.step(action)
     env.close()
     assert len(gaps) == 4 and max(gaps) < 1.0, gaps
+
+
+def test_a_cartesian_walk_moves_straight_and_turns_evenly():
+    chain = grasp_chain()
+    start = chain.forward(READY_ARM_Q[None])[0]
+    turn = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # a quarter turn
+    goal = (start[:3, 3] + [0.05, -0.08, -0.1], start[:3, :3] @ turn)
+    path = cartesian_walk(chain, READY_ARM_Q, [goal], np.random.default_rng(0))
+    assert path is not None and len(path) >= math.ceil((math.pi / 2) / LINE_ROT_STEP) + 1
+    poses = chain.forward(path)
+    along = goal[0] - start[:3, 3]
+    off_line = np.cross(poses[:, :3, 3] - start[:3, 3], along / np.linalg.norm(along))
+    assert np.abs(off_line).max() < 1e-3  # on the straight line, to the IK's tolerance
+    angles = [_angle(start[:3, :3].T @ p[:3, :3]) for p in poses]
+    assert np.all(np.diff(angles) > 0.0) and angles[-1] == pytest.approx(math.pi / 2, abs=1e-3)
+    assert np.abs(np.diff(path, axis=0)).max() <= 0.3  # one IK branch throughout
+    far = (start[:3, 3] + [3.0, 0.0, 0.0], start[:3, :3])  # beyond the arm's reach
+    assert cartesian_walk(chain, READY_ARM_Q, [far], np.random.default_rng(0)) is None
+
+
+def _transfer_heights(seed: int, straight: bool) -> tuple[bool, float, list[str]]:
+    """Success, the fingertip's highest point between hand-off and closing the hand, and the
+    expert's events, for one square-on-square grasp in fingertip steps."""
+    env = gym.make(
+        "SlideGym/TopSlideGrasp-v0", object="square", table="square", control_mode="ee_delta"
+    )
+    obs, _ = env.reset(seed=seed)
+    agent = _planner_agent("regions", env, seed, 10.0)
+    agent.params = ExpertParams(straight_transfer=straight)
+    heights, handed_over, closed, success = [], None, None, False
+    for t in range(env.spec.max_episode_steps):
+        action, _ = agent.predict(obs, deterministic=True)
+        heights.append(float(obs["fingertip_pose"][2]))
+        if handed_over is None and slide_done({k: v[None] for k, v in obs.items()})[0]:
+            handed_over = t
+        if closed is None and action[-1] > 0:
+            closed = t
+        obs, _, terminated, truncated, info = env.step(action)
+        if terminated or truncated:
+            success = bool(info["is_success"])
+            break
+    env.close()
+    assert handed_over is not None and closed is not None
+    expert = agent.expert(0)
+    assert expert is not None
+    return success, max(heights[handed_over:closed]), expert.report.events
+
+
+def test_a_straight_transfer_is_off_by_default_and_keeps_the_hand_low():
+    """Square on the square table, seed 7, fingertip steps: between the hand-off and the
+    grasp the planner's joint-space legs raise the fingertip to 0.20 m, the straight legs to
+    0.105 m, and the plate is lifted either way."""
+    assert ExpertParams().straight_transfer is False
+    with pytest.raises(ValueError, match="straight_transfer must be True or False"):
+        ExpertParams(straight_transfer=1)  # type: ignore[arg-type]
+    planned = _transfer_heights(7, False)
+    straight = _transfer_heights(7, True)
+    assert planned[0] and straight[0]
+    assert "straight transfer to the grasp" in straight[2]
+    assert not any("straight" in e for e in planned[2])
+    assert planned[1] > 0.18 and straight[1] < 0.12

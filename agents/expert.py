@@ -12,7 +12,8 @@ collision checker rejected), ``press`` (straight down to the planned contact dep
 ``slide`` (the planned path), ``pull_back`` (only if the plate's centroid ended up near or past
 the edge), ``lift_off``, then a check of the real plate pose against Eq. 2's prediction. A
 graspable plate gets a grasp re-aimed at its measured pose: ``transfer`` (up and around to a
-stand-off outside the table edge), ``approach_grasp``, ``close``, ``lift``. A plate left
+stand-off outside the table edge; along straight lines with ``ExpertParams.straight_transfer``),
+``approach_grasp``, ``close``, ``lift``. A plate left
 ungraspable is re-planned from where it lies, within the total planning budget. While the
 fingertip is pressed, :class:`~agents.tracking.ContactTracker` corrects the planned targets.
 

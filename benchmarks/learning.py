@@ -641,23 +641,6 @@ ROWS = {
             )
             for suffix, seed in ANCHOR_SEEDS[:2]
         ),
-        Row(  # ... with DART: the executed actions noisy, the labels the expert's corrections
-            "dp-dart-ee-square-grasp-stop-anchor-nearest-straight-b256-10k",
-            "dp-dart",
-            GRASP,
-            {**SQUARE, **EE, **ANCHOR},
-            "slide-gym/square-grasp-ee-stop-anchor-nearest-straight-dart-v1",
-            {
-                **SQUARE_SLIDE,
-                "action_noise": 0.1,
-                "expert_params": {
-                    **GRASP_DEMO_EXPERT,
-                    "nearest_goal_edge": 1,
-                    "straight_transfer": 1,
-                },
-            },
-            [*CPU_B256, "--iterations", "10000"],
-        ),
         *(
             Row(  # ... and on random catalog scenes, against dp-ee-catalog-slide-stop-b256-10k;
                 # -ft10k: 10000 more iterations from its weights (a fresh warm-up and decay)

@@ -132,7 +132,8 @@ def play_episode(
     time limit. ``frames`` collects ``env.render()`` every :data:`VIDEO_EVERY` steps;
     ``on_reset(obs, info)`` and ``on_step`` see every observation (``on_step`` the
     truncation of a give-up too). ``perturb(action)`` gives the action executed instead of
-    the agent's (DART's noise); ``on_step`` sees the executed one."""
+    the agent's (DART's noise), which the expert then carries on from at its own pace
+    (:meth:`~agents.expert.SlideGraspExpert.follow`); ``on_step`` sees the executed one."""
     base = env.unwrapped
     wall = time.perf_counter()
     obs, info = env.reset(seed=seed, options=options)
@@ -147,7 +148,12 @@ def play_episode(
     while not (terminated or truncated):
         action, _ = agent.predict(obs, episode_start=np.array([steps == 0]))
         if perturb is not None:
-            action = perturb(np.asarray(action))
+            clean = np.asarray(action)
+            action = perturb(clean)
+            if not np.array_equal(action, clean):  # it carries on from what was executed
+                executing = agent.expert(0)
+                assert executing is not None
+                executing.follow(action, retime=False)
         obs, reward, terminated, truncated, info = env.step(action)
         expert = agent.expert(0)
         assert expert is not None

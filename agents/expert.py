@@ -253,18 +253,19 @@ class SlideGraspExpert:
         self.q_cmd = np.clip(self.q_cmd + self.max_joint_step * delta, ARM_LOWER, ARM_UPPER)
         return np.r_[delta, 2.0 * hand - 1.0].astype(np.float32)
 
-    def follow(self, action: np.ndarray) -> None:
+    def follow(self, action: np.ndarray, retime: bool = True) -> None:
         """The environment executed ``action`` instead of this expert's last one (a learner
-        acted): carry on from the command that ``action`` gives, as the environment's
-        controller computed it. The plan and its queue stay; only the command moves.
+        acted, or DART's noise): carry on from the command that ``action`` gives, as the
+        environment's controller computed it. The plan and its queue stay; only the command
+        moves, and the next action heads for the plan's next target from there.
 
-        From then on the plan is re-timed to the learner's progress (:attr:`retimed`): no
-        action moves faster than the plan does at that point (at least
-        ``RETIME_MIN_STEP``), a lagging command holds the plan (in ``ee_delta`` mode), and
-        targets the command has already passed are dropped. A label then shows the learner
-        how to go on from where it is at the plan's pace, not how to catch up with the
-        plan's clock at full speed."""
-        self.retimed = True
+        With ``retime`` (a learner acted), from then on the plan is re-timed to the
+        learner's progress (:attr:`retimed`): no action moves faster than the plan does at
+        that point (at least ``RETIME_MIN_STEP``), a lagging command holds the plan (in
+        ``ee_delta`` mode), and targets the command has already passed are dropped. A label
+        then shows the learner how to go on from where it is at the plan's pace, not how to
+        catch up with the plan's clock at full speed."""
+        self.retimed = self.retimed or retime
         if self._before is None:
             return
         q_before, ee_state = self._before

@@ -641,6 +641,24 @@ ROWS = {
             )
             for suffix, seed in ANCHOR_SEEDS[:2]
         ),
+        Row(  # ... with DART in the free-space moves: noisy, and the expert's corrections
+            "dp-dart-ee-square-grasp-stop-anchor-nearest-straight-b256-10k",
+            "dp-dart",
+            GRASP,
+            {**SQUARE, **EE, **ANCHOR},
+            "slide-gym/square-grasp-ee-stop-anchor-nearest-straight-dart-v1",
+            {
+                **SQUARE_SLIDE,
+                "action_noise": 0.3,
+                "noise_phases": ["approach", "transfer"],
+                "expert_params": {
+                    **GRASP_DEMO_EXPERT,
+                    "nearest_goal_edge": 1,
+                    "straight_transfer": 1,
+                },
+            },
+            [*CPU_B256, "--iterations", "10000"],
+        ),
         *(
             Row(  # ... and on random catalog scenes, against dp-ee-catalog-slide-stop-b256-10k;
                 # -ft10k: 10000 more iterations from its weights (a fresh warm-up and decay)
@@ -873,6 +891,7 @@ def command(row: Row, models: Path) -> str:
     trained = _trained(row)
     c = trained.collect
     noise = f" --action-noise {c['action_noise']}" if c.get("action_noise") else ""
+    noise += f" --noise-phases {','.join(c['noise_phases'])}" if c.get("noise_phases") else ""
     noise += "".join(f" --planner-param {k}={v}" for k, v in c.get("planner_params", {}).items())
     noise += "".join(f" --expert-param {k}={v}" for k, v in c.get("expert_params", {}).items())
     collect = (

@@ -79,6 +79,7 @@ def _cmd_collect(args: argparse.Namespace) -> int:
         seed=args.seed,
         only_success=args.only_success,
         action_noise=args.action_noise,
+        noise_phases=None if args.noise_phases is None else args.noise_phases.split(","),
         split=args.split,
         randomization=parse_randomization(args.randomization),
         physics=parse_physics(args.physics),
@@ -327,6 +328,12 @@ def add_parsers(sub: Any) -> None:
         help="DART: execute the expert's arm actions plus seeded Gaussian noise of this "
         "standard deviation (action units) and store its clean actions as labels "
         "(infos['expert_action'])",
+    )
+    p.add_argument(
+        "--noise-phases",
+        metavar="PHASE,...",
+        help="with --action-noise: only in these phases of the expert, e.g. "
+        "approach,transfer (the free-space moves); default: every phase",
     )
     p.add_argument(
         "--planner-param",

@@ -95,6 +95,11 @@ class CollectConfig:
             the hand command is left alone). The dataset's ``actions`` are the executed ones
             (an exact replay needs them) and ``infos["expert_action"]`` the expert's clean
             ones, the labels a learner trains on. 0: no noise, no labels.
+        noise_phases: the expert's phases (:data:`agents.expert.PHASES`) whose actions get
+            the noise, such as ``["approach", "transfer"]``, the free-space moves where a
+            learner drifts; None: every phase. Noise while pressing or pinching turns the
+            slid plate and loosens the grasp (the expert lifted 2 of 4 square grasps with
+            noise 0.03 on every phase).
         split: the named split (:mod:`slide_gym.splits`) the episodes come from, or None;
             then ``object`` is the split's and every seed stays in its collect seeds.
         randomization: the env's domain randomisation: None, ``"default"`` or a dict of
@@ -122,6 +127,7 @@ class CollectConfig:
     seed: int = 0
     only_success: bool = False
     action_noise: float = 0.0
+    noise_phases: list[str] | None = None
     split: str | None = None
     randomization: str | dict[str, list[float]] | None = None
     physics: dict[str, Any] | None = None
@@ -150,6 +156,10 @@ class CollectConfig:
                 f"action_noise must be a number in [0, {MAX_ACTION_NOISE}] (the standard "
                 f"deviation in action units, which span [-1, 1]), got {self.action_noise!r}"
             )
+        if self.noise_phases is not None:
+            object.__setattr__(self, "noise_phases", _check_noise_phases(self.noise_phases))
+            if not self.action_noise:
+                raise ValueError("noise_phases needs an action_noise above 0")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise ValueError(f"seed must be a non-negative integer, got {self.seed!r}")
         if not (isinstance(self.scale, (int, float)) and math.isfinite(self.scale)):
@@ -199,12 +209,13 @@ class CollectConfig:
         return kwargs
 
     def to_json(self) -> dict[str, Any]:
-        """The fields as JSON values; ``action_noise``, ``split``, ``randomization`` and
+        """The fields as JSON values; ``action_noise``, ``noise_phases``, ``split``,
+        ``randomization`` and
         ``physics`` only
         when set, so that collections made before those fields existed keep their identity
         (and resume)."""
         data = dataclasses.asdict(self)
-        for name in ("action_noise", "split"):
+        for name in ("action_noise", "noise_phases", "split"):
             if not data[name]:
                 del data[name]
         for name in ("randomization", "physics", "planner_params", "expert_params"):
@@ -244,3 +255,17 @@ class CollectConfig:
         """``"name: mine != theirs"`` for every field that differs."""
         a, b = dataclasses.asdict(self), dataclasses.asdict(other)
         return [f"{k}: {a[k]!r} != {b[k]!r}" for k in a if a[k] != b[k]]
+
+
+def _check_noise_phases(phases: Any) -> list[str]:
+    """``phases`` as a list of the expert's phase names; ValueError naming the allowed ones."""
+    from agents.expert import PHASES
+
+    names = [phases] if isinstance(phases, str) else list(phases)
+    unknown = [p for p in names if p not in PHASES]
+    if not names or unknown:
+        raise ValueError(
+            f"noise_phases must name some of the expert's phases ({', '.join(PHASES)}), "
+            f"got {phases!r}"
+        )
+    return names

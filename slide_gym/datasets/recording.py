@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import io
 import json
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -139,17 +140,27 @@ DART_STREAM = 0xDA27
 """Mixed with the episode's seed into the seed of its DART noise."""
 
 
-def dart_noise(sigma: float, seed: int, labels: list[np.ndarray]) -> Any:
+def dart_noise(
+    sigma: float,
+    seed: int,
+    labels: list[np.ndarray],
+    noisy_now: Callable[[], bool] | None = None,
+) -> Any:
     """``perturb(action)`` for :func:`agents.episode.play_episode`: keeps the clean action
     in ``labels`` and returns it with seeded Gaussian noise (standard deviation ``sigma``) on
-    every entry but the last (the hand command), clipped to [-1, 1]."""
+    every entry but the last (the hand command), clipped to [-1, 1]; only where
+    ``noisy_now()`` is true, if given (the noise is drawn every step all the same, so each
+    step's draw depends on its index alone)."""
     rng = np.random.default_rng([int(seed), DART_STREAM])
 
     def perturb(action: np.ndarray) -> np.ndarray:
         clean = np.asarray(action, dtype=np.float32).reshape(-1)
         labels.append(clean.copy())
+        draw = rng.normal(0.0, sigma, size=len(clean) - 1).astype(np.float32)
+        if noisy_now is not None and not noisy_now():
+            return clean.copy()
         noisy = clean.copy()
-        noisy[:-1] += rng.normal(0.0, sigma, size=len(clean) - 1).astype(np.float32)
+        noisy[:-1] += draw
         return np.clip(noisy, -1.0, 1.0)
 
     return perturb
@@ -168,8 +179,14 @@ def record_episode(config: CollectConfig, seed: int) -> RecordedEpisode:
     infos: list[dict[str, Any]] = []
     steps: list[tuple[np.ndarray, float, bool, bool]] = []
     labels: list[np.ndarray] = []
-    noise = config.action_noise
-    perturb = dart_noise(noise, seed, labels) if noise > 0 else None
+    noise, phases = config.action_noise, config.noise_phases
+    agent: PlannerAgent | None = None
+
+    def noisy_now() -> bool:
+        expert = None if agent is None else agent.expert(0)
+        return expert is not None and phases is not None and expert.phase in phases
+
+    perturb = dart_noise(noise, seed, labels, noisy_now if phases else None) if noise else None
 
     def on_reset(obs: dict[str, np.ndarray], info: dict[str, Any]) -> None:
         observations.append(obs)

@@ -28,6 +28,7 @@ from agents.learned.train import (  # noqa: E402
     train_diffusion,
 )
 from slide_gym.cli import main  # noqa: E402
+from slide_gym.datasets.config import CollectConfig  # noqa: E402
 from slide_gym.datasets.recording import CHUNK_KEY, LABEL_KEY  # noqa: E402
 from slide_gym.datasets.store import load, read_episodes  # noqa: E402
 
@@ -83,7 +84,8 @@ def trained(dart, tmp_path_factory):
 
 def test_dart_labels_are_the_experts_clean_actions(dart):
     """The executed actions are noisy; the labels are what a fresh expert with the same seed
-    answers to the same observations (it reads nothing else), and the noise is seeded."""
+    answers to the same observations (it reads nothing else) when it carries on from the
+    executed actions, and the noise is seeded."""
     from agents.planner_agent import PlannerAgent
 
     for ep in read_episodes(dart):
@@ -99,15 +101,40 @@ def test_dart_labels_are_the_experts_clean_actions(dart):
                 obs = {k: v[t] for k, v in ep.observations.items()}
                 action, _ = agent.predict(obs, episode_start=np.array([t == 0]))
                 np.testing.assert_array_equal(action, labels[t])
+                if not np.array_equal(executed[t], labels[t]):
+                    agent.expert(0).follow(executed[t], retime=False)
         finally:
             agent.close()
+
+
+def test_dart_noise_in_some_phases_is_corrected_by_the_next_label(minari_root):
+    """With ``--noise-phases transfer`` only the move to the grasp is noisy, and the expert
+    carries on from each executed action: its next label takes the noise back (without
+    that, the executed arm drifts from the plan by the sum of the noise)."""
+    args = ["collect", "--env", "SlideGym/TopSlideGrasp-v0", "--episodes", "1", "--seed", "4"]
+    args += ["--workers", "1", "--action-noise", "0.1", "--noise-phases", "transfer"]
+    assert main([*args, "--dataset-id", "test/dart-transfer-v0"]) == 0
+    ep = next(read_episodes(load("test/dart-transfer-v0")))
+    assert ep.record["success"]
+    labels, executed = ep.infos[LABEL_KEY][1:], ep.actions
+    noise = executed[:, :7] - labels[:, :7]
+    noisy = np.flatnonzero(np.abs(noise).max(axis=1) > 0)
+    start = dict(ep.record["phase_steps"])["transfer"]
+    assert len(noisy) > 20 and noisy[0] == start  # the transfer, none of the slide
+    assert np.array_equal(noisy, np.arange(start, start + len(noisy)))  # and nothing after it
+    t = noisy[1:-2]  # the label after a noisy step undoes that step's noise
+    change = labels[t + 1, :7] - labels[t, :7]
+    assert np.corrcoef(noise[t].ravel(), change.ravel())[0, 1] < -0.5
+    for bad, why in (("fly", "noise_phases must name"), ("approach", "needs an action_noise")):
+        with pytest.raises(ValueError, match=why):
+            CollectConfig(
+                env_id=ENV_ID, noise_phases=[bad], action_noise=0.3 if bad == "fly" else 0.0
+            )
 
 
 def test_a_collection_without_noise_keeps_its_identity():
     """``action_noise`` is in a configuration's JSON only when set, so collections made before
     DART existed resume (their cases keep their keys) and DART ones differ from them."""
-    from slide_gym.datasets.config import CollectConfig
-
     plain = CollectConfig(env_id=ENV_ID)
     assert "action_noise" not in plain.to_json()
     assert CollectConfig.from_json(plain.to_json()) == plain

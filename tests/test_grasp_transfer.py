@@ -3,7 +3,9 @@ and only the last few centimetres at the slow grasp speed."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from dataclasses import dataclass
 
 import gymnasium as gym
 import numpy as np
@@ -55,15 +57,23 @@ def test_ik_along_the_branch_stays_near_the_start_where_restarts_need_not():
     assert sum(farther) >= 5
 
 
-def test_expert_transfer_stays_low_and_its_approach_short():
-    """Square on the square table, seed 8, fingertip steps: the re-aimed grasp was on another
-    IK branch and the transfer swept the fingertip 0.97 m above the table, then crept half a
-    metre at grasp speed (294 steps from lift-off to closing the hand)."""
+@dataclass
+class _Transfer:
+    """One square-on-square grasp in fingertip steps, from the hand-off to closing the hand."""
+
+    success: bool
+    highest: float  # m, the fingertip's highest point
+    steps: int
+    events: list[str]
+
+
+def _transfer(seed: int, straight: bool = False) -> _Transfer:
     env = gym.make(
         "SlideGym/TopSlideGrasp-v0", object="square", table="square", control_mode="ee_delta"
     )
-    obs, _ = env.reset(seed=8)
-    agent = _planner_agent("regions", env, 8, 10.0)
+    obs, _ = env.reset(seed=seed)
+    agent = _planner_agent("regions", env, seed, 10.0)
+    agent.params = dataclasses.replace(agent.params, straight_transfer=straight)
     heights, handed_over, closed, success = [], None, None, False
     for t in range(env.spec.max_episode_steps):
         action, _ = agent.predict(obs, deterministic=True)
@@ -77,9 +87,18 @@ def test_expert_transfer_stays_low_and_its_approach_short():
             success = bool(info["is_success"])
             break
     env.close()
-    assert success and handed_over is not None and closed is not None
-    assert max(heights[handed_over:closed]) < 0.4
-    assert closed - handed_over < 200
+    expert = agent.expert(0)
+    assert handed_over is not None and closed is not None and expert is not None
+    highest = max(heights[handed_over:closed])
+    return _Transfer(success, highest, closed - handed_over, expert.report.events)
+
+
+def test_expert_transfer_stays_low_and_its_approach_short():
+    """Square on the square table, seed 8, fingertip steps: the re-aimed grasp was on another
+    IK branch and the transfer swept the fingertip 0.97 m above the table, then crept half a
+    metre at grasp speed (294 steps from lift-off to closing the hand)."""
+    run = _transfer(8)
+    assert run.success and run.highest < 0.4 and run.steps < 200
 
 
 def test_mirrored_postures_mirror_the_hand_and_turn_the_palm():
@@ -151,34 +170,6 @@ def test_a_cartesian_walk_moves_straight_and_turns_evenly():
     assert cartesian_walk(chain, READY_ARM_Q, [far], np.random.default_rng(0)) is None
 
 
-def _transfer_heights(seed: int, straight: bool) -> tuple[bool, float, list[str]]:
-    """Success, the fingertip's highest point between hand-off and closing the hand, and the
-    expert's events, for one square-on-square grasp in fingertip steps."""
-    env = gym.make(
-        "SlideGym/TopSlideGrasp-v0", object="square", table="square", control_mode="ee_delta"
-    )
-    obs, _ = env.reset(seed=seed)
-    agent = _planner_agent("regions", env, seed, 10.0)
-    agent.params = ExpertParams(straight_transfer=straight)
-    heights, handed_over, closed, success = [], None, None, False
-    for t in range(env.spec.max_episode_steps):
-        action, _ = agent.predict(obs, deterministic=True)
-        heights.append(float(obs["fingertip_pose"][2]))
-        if handed_over is None and slide_done({k: v[None] for k, v in obs.items()})[0]:
-            handed_over = t
-        if closed is None and action[-1] > 0:
-            closed = t
-        obs, _, terminated, truncated, info = env.step(action)
-        if terminated or truncated:
-            success = bool(info["is_success"])
-            break
-    env.close()
-    assert handed_over is not None and closed is not None
-    expert = agent.expert(0)
-    assert expert is not None
-    return success, max(heights[handed_over:closed]), expert.report.events
-
-
 def test_a_straight_transfer_is_off_by_default_and_keeps_the_hand_low():
     """Square on the square table, seed 7, fingertip steps: between the hand-off and the
     grasp the planner's joint-space legs raise the fingertip to 0.20 m, the straight legs to
@@ -186,9 +177,8 @@ def test_a_straight_transfer_is_off_by_default_and_keeps_the_hand_low():
     assert ExpertParams().straight_transfer is False
     with pytest.raises(ValueError, match="straight_transfer must be True or False"):
         ExpertParams(straight_transfer=1)  # type: ignore[arg-type]
-    planned = _transfer_heights(7, False)
-    straight = _transfer_heights(7, True)
-    assert planned[0] and straight[0]
-    assert "straight transfer to the grasp" in straight[2]
-    assert not any("straight" in e for e in planned[2])
-    assert planned[1] > 0.18 and straight[1] < 0.12
+    planned, straight = _transfer(7), _transfer(7, straight=True)
+    assert planned.success and straight.success
+    assert "straight transfer to the grasp" in straight.events
+    assert not any("straight" in e for e in planned.events)
+    assert planned.highest > 0.18 and straight.highest < 0.12

@@ -1043,7 +1043,8 @@ def run(row: Row, models: Path, out: Path, workers: int = 1) -> dict[str, Any]:
     with (out / "rows.jsonl").open("a") as f:
         f.write(json.dumps(record) + "\n")
     if row.method.startswith("dp"):
-        curve = agent / "progress.csv" if row.method == "dp" and row.base is None else None
+        trained_here = row.method in ("dp", "dp-dart") and row.base is None
+        curve = agent / "progress.csv" if trained_here else None
         if curve is not None and curve.exists():
             (out / "curves").mkdir(exist_ok=True)
             shutil.copy(curve, out / "curves" / f"{row.name}.csv")

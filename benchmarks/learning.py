@@ -659,6 +659,24 @@ ROWS = {
             },
             [*CPU_B256, "--iterations", "10000"],
         ),
+        Row(  # ... with DART in the transfer only (the slide left clean), 5000 iterations
+            "dp-dart-transfer-ee-square-grasp-stop-anchor-nearest-straight-b256-5k",
+            "dp-dart",
+            GRASP,
+            {**SQUARE, **EE, **ANCHOR},
+            "slide-gym/square-grasp-ee-stop-anchor-nearest-straight-dart-transfer-v1",
+            {
+                **SQUARE_SLIDE,
+                "action_noise": 0.3,
+                "noise_phases": ["transfer"],
+                "expert_params": {
+                    **GRASP_DEMO_EXPERT,
+                    "nearest_goal_edge": 1,
+                    "straight_transfer": 1,
+                },
+            },
+            [*CPU_B256, "--iterations", "5000"],
+        ),
         *(
             Row(  # ... and on random catalog scenes, against dp-ee-catalog-slide-stop-b256-10k;
                 # -ft10k: 10000 more iterations from its weights (a fresh warm-up and decay)

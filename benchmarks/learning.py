@@ -677,6 +677,17 @@ ROWS = {
             },
             [*CPU_B256, "--iterations", "5000"],
         ),
+        _stop_dagger(  # the past-stop gate on the straight-transfer grasp: its labels follow the
+            # same one-mode straight transfer (the dataset's expert settings)
+            "dp-dagger-past-stop-ee-square-grasp-stop-anchor-nearest-straight-b256-10k",
+            "square-grasp-ee-stop-anchor-nearest-straight-dagger-past-stop-v1",
+            ("--chunk-labels", "1", "--label-from-overhang", "0.035"),
+            base="dp-ee-square-grasp-stop-anchor-nearest-straight-b256-10k",
+            physics=ANCHOR,
+            env_id=GRASP,
+            workers=2,
+            max_steps=900,
+        ),
         *(
             Row(  # ... and on random catalog scenes, against dp-ee-catalog-slide-stop-b256-10k;
                 # -ft10k: 10000 more iterations from its weights (a fresh warm-up and decay)

@@ -688,6 +688,18 @@ ROWS = {
             workers=2,
             max_steps=900,
         ),
+        _stop_dagger(  # ... with per-step labels, re-timed to the learner's progress: the chunk
+            # labels above catch a lagging learner up to the plan (25 % at the step limit
+            # against the demonstrations' 10 %)
+            "dp-dagger-steps-past-stop-ee-square-grasp-stop-anchor-nearest-straight-b256-10k",
+            "square-grasp-ee-stop-anchor-nearest-straight-dagger-steps-past-stop-v1",
+            ("--label-from-overhang", "0.035"),
+            base="dp-ee-square-grasp-stop-anchor-nearest-straight-b256-10k",
+            physics=ANCHOR,
+            env_id=GRASP,
+            workers=2,
+            max_steps=900,
+        ),
         *(
             Row(  # ... and on random catalog scenes, against dp-ee-catalog-slide-stop-b256-10k;
                 # -ft10k: 10000 more iterations from its weights (a fresh warm-up and decay)

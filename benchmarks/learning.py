@@ -639,7 +639,7 @@ ROWS = {
                 },
                 [*CPU_B256, "--iterations", "10000", *seed],
             )
-            for suffix, seed in ANCHOR_SEEDS[:2]
+            for suffix, seed in ANCHOR_SEEDS
         ),
         Row(  # ... with DART in the free-space moves: noisy, and the expert's corrections
             "dp-dart-ee-square-grasp-stop-anchor-nearest-straight-b256-10k",

@@ -149,6 +149,15 @@ def by_scene(episodes: list[dict[str, Any]]) -> dict[str, list[int]]:
     return dict(sorted(tally.items(), key=lambda kv: (-kv[1][1], kv[0])))
 
 
+def policy_name(path: Path) -> str:
+    """The row a policy folder belongs to: its name, or ``ROW/round-R`` for a DAgger round's
+    ``ROW/round-R/policy``."""
+    path = path.resolve()
+    if path.name == "policy" and path.parent.name.startswith("round-"):
+        return f"{path.parent.parent.name}/{path.parent.name}"
+    return path.name
+
+
 def main(argv: list[str] | None = None) -> int:
     import gymnasium as gym
 
@@ -192,7 +201,7 @@ def main(argv: list[str] | None = None) -> int:
     env.close()
     kinds = Counter(e["kind"] for e in episodes if not e["success"])
     summary = {
-        "policy": args.policy.name,
+        "policy": policy_name(args.policy),
         "seeds": [first, last],
         "episodes": len(episodes),
         "successes": sum(e["success"] for e in episodes),

@@ -866,6 +866,12 @@ def test_slide_failures_names_each_grasp_ending(load_benchmark):
     assert kind(False, 0.2, True, True, 0.005, True) == "pinched, not held"
 
 
+def test_slide_failures_names_a_dagger_round_by_its_row(load_benchmark, tmp_path):
+    name = load_benchmark("slide_failures").policy_name
+    assert name(tmp_path / "row" / "round-2" / "policy") == "row/round-2"
+    assert name(tmp_path / "row") == "row"
+
+
 def test_episode_seeds_keep_only_the_listed_episodes(dart, tmp_path, capsys):
     full = load_demonstrations(dart)
     only = load_demonstrations(dart, episode_seeds=frozenset({5}))

@@ -1076,12 +1076,9 @@ def run(row: Row, models: Path, out: Path, workers: int = 1) -> dict[str, Any]:
     out.mkdir(parents=True, exist_ok=True)
     with (out / "rows.jsonl").open("a") as f:
         f.write(json.dumps(record) + "\n")
-    if row.method.startswith("dp"):
-        trained_here = row.method in ("dp", "dp-dart") and row.base is None
-        curve = agent / "progress.csv" if trained_here else None
-        if curve is not None and curve.exists():
-            (out / "curves").mkdir(exist_ok=True)
-            shutil.copy(curve, out / "curves" / f"{row.name}.csv")
+    if row.method in ("dp", "dp-dart") and row.base is None and (agent / "progress.csv").exists():
+        (out / "curves").mkdir(exist_ok=True)
+        shutil.copy(agent / "progress.csv", out / "curves" / f"{row.name}.csv")
     return record
 
 

@@ -866,6 +866,15 @@ def test_slide_failures_names_each_grasp_ending(load_benchmark):
     assert kind(False, 0.2, True, True, 0.005, True) == "pinched, not held"
 
 
+def test_watch_grasp_prints_one_episode(trained, tmp_path, capsys, load_benchmark):
+    main = load_benchmark("watch_grasp").main
+    assert main([str(trained), "--seed", "20000", "--every", "50"]) == 0
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    assert last.startswith(("success after", "failure after")) and last.endswith("steps")
+    assert main([str(tmp_path / "missing")]) == 2
+    assert "watch_grasp:" in capsys.readouterr().err
+
+
 def test_slide_failures_names_a_dagger_round_by_its_row(load_benchmark, tmp_path):
     name = load_benchmark("slide_failures").policy_name
     assert name(tmp_path / "row" / "round-2" / "policy") == "row/round-2"
